@@ -1,0 +1,261 @@
+//! The one table of externally visible variables.
+//!
+//! The FMU's value references, its `modelDescription.xml` and its GUID are all derived from
+//! [`VARIABLES`]; nothing else declares a variable. A variable's value reference is its index
+//! in the table.
+use sha2::{Digest, Sha256};
+
+use crate::ModelError;
+
+/// Identity of each variable, for code that reads or writes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[allow(missing_docs)] // the table below documents each one
+pub enum VarId {
+    Duty,
+    Io,
+    Vin,
+    Vout,
+    Il,
+    Vc,
+    VoutAvg,
+    IlAvg,
+    L,
+    Rl,
+    C,
+    Rc,
+    Cl,
+    Fs,
+    Mode,
+    SteadyStart,
+}
+
+/// FMI causality.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    /// Set by the user before initialization.
+    Parameter,
+    /// Set by the master at every communication point.
+    Input,
+    /// Computed by the model.
+    Output,
+}
+
+/// FMI variability.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    /// Constant after initialization.
+    Fixed,
+    /// Changes continuously in time.
+    Continuous,
+}
+
+/// FMI base type with its type-specific attributes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Type {
+    /// A real number with unit and inclusive range.
+    Real {
+        /// Unit name (see [`UNITS`]).
+        unit: &'static str,
+        /// Smallest allowed value (inclusive).
+        min: f64,
+        /// Largest allowed value (inclusive).
+        max: f64,
+        /// Start value (`None` for calculated outputs).
+        start: Option<f64>,
+    },
+    /// An enumeration of type [`MODE_TYPE`] with the items of [`MODE_ITEMS`].
+    Mode {
+        /// Start item (1-based, as in FMI enumerations).
+        start: i32,
+    },
+    /// A Boolean.
+    Boolean {
+        /// Start value.
+        start: bool,
+    },
+}
+
+/// One externally visible variable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Variable {
+    /// Which quantity this is.
+    pub id: VarId,
+    /// Name in the FMU and the CLI.
+    pub name: &'static str,
+    /// FMI causality.
+    pub causality: Causality,
+    /// FMI variability.
+    pub variability: Variability,
+    /// Type and type-specific attributes.
+    pub ty: Type,
+    /// One-line description.
+    pub description: &'static str,
+}
+
+const fn real(
+    id: VarId,
+    name: &'static str,
+    causality: Causality,
+    unit: &'static str,
+    range: (f64, f64),
+    start: Option<f64>,
+    description: &'static str,
+) -> Variable {
+    let variability =
+        if matches!(causality, Causality::Parameter) { Variability::Fixed } else { Variability::Continuous };
+    Variable {
+        id,
+        name,
+        causality,
+        variability,
+        ty: Type::Real { unit, min: range.0, max: range.1, start },
+        description,
+    }
+}
+
+const ANY: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
+use Causality::{Input, Output, Parameter};
+
+/// Every variable of the converter; the index is the FMI value reference.
+pub const VARIABLES: &[Variable] = &[
+    real(VarId::Duty, "duty", Input, "1", (0.0, 1.0), Some(0.5), "Duty cycle command (latched at each period start in switched mode)"),
+    real(VarId::Io, "io", Input, "A", (-100.0, 100.0), Some(1.0), "Load current drawn from the output"),
+    real(VarId::Vin, "vin", Input, "V", (0.0, 1000.0), Some(12.0), "Input voltage U"),
+    real(VarId::Vout, "vout", Output, "V", ANY, None, "Output voltage (across Cl), instantaneous"),
+    real(VarId::Il, "il", Output, "A", ANY, None, "Inductor current, instantaneous"),
+    real(VarId::Vc, "vc", Output, "V", ANY, None, "Voltage of C behind its ESR, instantaneous"),
+    real(VarId::VoutAvg, "vout_avg", Output, "V", ANY, None, "Exact average of vout over the last completed switching period"),
+    real(VarId::IlAvg, "il_avg", Output, "A", ANY, None, "Exact average of il over the last completed switching period"),
+    real(VarId::L, "L", Parameter, "H", (1e-9, 1.0), Some(3.3e-6), "Inductance"),
+    real(VarId::Rl, "RL", Parameter, "Ohm", (0.0, 10.0), Some(0.1), "Inductor series resistance"),
+    real(VarId::C, "C", Parameter, "F", (1e-9, 1.0), Some(100e-6), "Main output capacitance"),
+    real(VarId::Rc, "Rc", Parameter, "Ohm", (1e-6, 10.0), Some(0.1), "Equivalent series resistance of C"),
+    real(VarId::Cl, "Cl", Parameter, "F", (1e-9, 1.0), Some(10e-6), "Load capacitance"),
+    real(VarId::Fs, "fs", Parameter, "Hz", (1.0, 1e8), Some(330e3), "Switching frequency"),
+    Variable {
+        id: VarId::Mode,
+        name: "mode",
+        causality: Parameter,
+        variability: Variability::Fixed,
+        ty: Type::Mode { start: 1 },
+        description: "Switch-node model: averaged or exact switched PWM",
+    },
+    Variable {
+        id: VarId::SteadyStart,
+        name: "start_at_steady_state",
+        causality: Parameter,
+        variability: Variability::Fixed,
+        ty: Type::Boolean { start: true },
+        description: "Start from the averaged DC operating point of the initial inputs (else from zero)",
+    },
+];
+
+/// Name of the enumeration type of `mode`.
+pub const MODE_TYPE: &str = "Mode";
+/// Items of [`MODE_TYPE`], in order (FMI values 1, 2, …): name and description.
+pub const MODE_ITEMS: &[(&str, &str)] = &[
+    ("averaged", "State-space average, switch node = duty*vin"),
+    ("switched", "Exact trailing-edge PWM, duty latched at each period start"),
+];
+
+/// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
+pub const UNITS: &[(&str, [i32; 4])] = &[
+    ("1", [0, 0, 0, 0]),
+    ("A", [0, 0, 0, 1]),
+    ("V", [1, 2, -3, -1]),
+    ("Ohm", [1, 2, -3, -2]),
+    ("H", [1, 2, -2, -2]),
+    ("F", [-1, -2, 4, 2]),
+    ("Hz", [0, 0, -1, 0]),
+];
+
+impl Variable {
+    /// The FMI value reference (the index in [`VARIABLES`]).
+    pub fn vr(&self) -> u32 {
+        vr(self.id)
+    }
+
+    /// Checks a real value against the declared range; NaN is always rejected.
+    pub fn check_real(&self, value: f64) -> Result<f64, ModelError> {
+        match self.ty {
+            Type::Real { min, max, .. } if value >= min && value <= max => Ok(value),
+            Type::Real { unit, min, max, .. } => Err(ModelError::OutOfRange {
+                name: self.name,
+                value,
+                range: format!("within [{min:e}, {max:e}] {unit}"),
+            }),
+            _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Real" }),
+        }
+    }
+}
+
+/// Value reference of a variable.
+pub fn vr(id: VarId) -> u32 {
+    // The table is small and the position is its contract; a test pins that every id is present.
+    VARIABLES.iter().position(|v| v.id == id).map_or(u32::MAX, |i| i as u32)
+}
+
+/// Looks a variable up by value reference.
+pub fn by_vr(vr: u32) -> Option<&'static Variable> {
+    VARIABLES.get(vr as usize)
+}
+
+/// Looks a variable up by name.
+pub fn by_name(name: &str) -> Option<&'static Variable> {
+    VARIABLES.iter().find(|v| v.name == name)
+}
+
+/// GUID derived from the table, so that an FMU binary rejects a modelDescription.xml that was
+/// generated from another table.
+pub fn guid() -> String {
+    let mut hash = Sha256::new();
+    for v in VARIABLES {
+        hash.update(format!("{}|{:?}|{:?}|{:?}|{:?}|{}\n", v.name, v.id, v.causality, v.variability, v.ty, v.description));
+    }
+    for (name, desc) in MODE_ITEMS {
+        hash.update(format!("{name}|{desc}\n"));
+    }
+    let h = hash.finalize();
+    let hex: String = h.iter().take(16).map(|b| format!("{b:02x}")).collect();
+    format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_and_every_id_is_present() {
+        for (i, v) in VARIABLES.iter().enumerate() {
+            assert_eq!(v.vr() as usize, i, "{} appears twice", v.name);
+            assert_eq!(by_name(v.name).map(|w| w.id), Some(v.id), "name {} is not unique", v.name);
+        }
+    }
+
+    #[test]
+    fn units_are_declared() {
+        for v in VARIABLES {
+            if let Type::Real { unit, .. } = v.ty {
+                assert!(UNITS.iter().any(|(u, _)| *u == unit), "unit {unit} of {} undeclared", v.name);
+            }
+        }
+    }
+
+    #[test]
+    fn range_check_names_the_variable_and_rejects_nan() {
+        let duty = by_name("duty").unwrap();
+        assert_eq!(duty.check_real(0.4), Ok(0.4));
+        let err = duty.check_real(1.2).unwrap_err().to_string();
+        assert!(err.contains("duty") && err.contains("1.2"), "{err}");
+        assert!(duty.check_real(f64::NAN).is_err());
+        assert!(by_name("L").unwrap().check_real(0.0).is_err());
+    }
+
+    #[test]
+    fn guid_is_stable_and_well_formed() {
+        let g = guid();
+        assert_eq!(g, guid());
+        assert_eq!(g.len(), 38);
+        assert!(g.starts_with('{') && g.ends_with('}'));
+    }
+}

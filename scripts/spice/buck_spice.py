@@ -1,0 +1,281 @@
+#!/usr/bin/env python3
+"""Ideal-switch synchronous buck converter simulated in ngspice.
+
+Independent "real plant" reference: the netlist ``buck_ideal.cir`` (next to this
+file) is driven by a per-period duty sequence with trailing-edge PWM and the
+transient is reduced to per-switching-period data (period-start samples and
+exact period averages).  Only numpy is required (plus ``ngspice`` on PATH).
+
+    L  dil/dt = u_sw - RL*il - vo
+    C  dvc/dt = (vo - vc)/Rc
+    Cl dvo/dt = il - io - (vo - vc)/Rc
+
+Period k spans [k*T, (k+1)*T); u_sw = U on [k*T, k*T + d_k*T), 0 otherwise.
+
+Switch-node edges: SPICE needs finite edges, so each ideal step is replaced by
+a linear ramp of width ``edge`` (default 10 ps) *centred* on the ideal
+switching instant.  Each period's volt-seconds are then exactly U*d_k*T and the
+state after an edge equals the ideal one; only inside an edge does il deviate,
+by at most U*edge/(4*L) (about 9 uA with the defaults) -- that is also the
+worst-case error of the il period-start sample, which falls in the middle of a
+rising edge.  Duties within ~edge/T of 0 or 1 get proportionally shorter edges.
+
+CLI example:
+    python scripts/spice/buck_spice.py --periods 3001 --cl 10e-6 --io 1 --seed 1 --out data.csv
+"""
+
+import argparse
+import math
+import os
+import re
+import shutil
+import string
+import subprocess
+import sys
+import tempfile
+import time as _time
+
+import numpy as np
+
+TEMPLATE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "buck_ideal.cir")
+
+# Solver settings, chosen by a convergence study (see test/README in report):
+# period averages move by < 1 uV / < 1 uA when max_step is halved from T/200.
+DEFAULT_STEPS_PER_PERIOD = 200
+SOLVER_OPTIONS = dict(method="trap", reltol=1e-6, abstol=1e-12, vntol=1e-9, chgtol=1e-16)
+
+
+def prbs_duty(n_periods, bit_periods=8, low=0.4, high=0.6, seed=1):
+    """Per-period duty: a PRBS held for ``bit_periods`` periods per bit.
+
+    Bits come from a maximal-length 15-bit Fibonacci LFSR (x^15 + x^14 + 1,
+    period 32767 bits); ``seed`` is the initial register state (taken mod
+    2^15, must be non-zero).  Bit 1 -> ``high``, bit 0 -> ``low``.
+    """
+    state = int(seed) & 0x7FFF
+    if state == 0:
+        raise ValueError("seed must be non-zero mod 2**15")
+    n_bits = -(-int(n_periods) // int(bit_periods))
+    bits = np.empty(n_bits, dtype=bool)
+    for i in range(n_bits):
+        new = ((state >> 14) ^ (state >> 13)) & 1
+        state = ((state << 1) | new) & 0x7FFF
+        bits[i] = new
+    return np.where(np.repeat(bits, bit_periods)[:n_periods], high, low).astype(float)
+
+
+def _num(x):
+    """Float formatted for SPICE (repr is exact and never uses unit suffixes)."""
+    x = float(x)
+    if not math.isfinite(x):
+        raise ValueError(f"non-finite circuit value {x}")
+    return repr(x)
+
+
+def _switch_sources(duty, T, U, edge):
+    """SPICE lines for u_sw = v(sw): one series source per run of equal duty."""
+    specs = []
+    add = specs.append
+    n = len(duty)
+    k0 = 0
+    while k0 < n:
+        d = duty[k0]
+        k1 = k0
+        while k1 < n and duty[k1] == d:
+            k1 += 1
+        if d >= 1.0:
+            # Constant U over the whole run: one trapezoid, edges centred on
+            # the run boundaries (the rising edge is clipped at t = 0).
+            ta, tb, e = k0 * T, k1 * T, edge
+            pts = [(0.0, U)] if k0 == 0 else [(ta - e / 2, 0.0), (ta + e / 2, U)]
+            pts += [(tb - e / 2, U), (tb + e / 2, 0.0)]
+            add("PWL(" + " ".join(f"{_num(t)} {_num(v)}" for t, v in pts) + ")")
+        elif d > 0.0:
+            # Edge no wider than half the on- or off-time keeps PW > 0 (PW = 0
+            # would make ngspice substitute its default) and the pulse < T.
+            e = min(edge, d * T / 2, (1 - d) * T / 2)
+            ks = k0
+            if k0 == 0:
+                # Period 0 starts switched on at t = 0 (a PULSE cannot start
+                # before t = 0): short PWL for it, PULSE for the rest.
+                add(f"PWL(0 {_num(U)} {_num(d * T - e / 2)} {_num(U)} {_num(d * T + e / 2)} 0)")
+                ks = 1
+            if k1 > ks:
+                # PULSE(V1 V2 TD TR TF PW PER NP)
+                add(f"PULSE(0 {_num(U)} {_num(ks * T - e / 2)} {_num(e)} {_num(e)} "
+                    f"{_num(d * T - e)} {_num(T)} {k1 - ks})")
+        k0 = k1
+    if not specs:  # all duties zero
+        add("DC 0")
+    # Series chain 0 -> s1 -> s2 ... -> sw, so v(sw) is the sum of all sources.
+    nodes = ["0"] + [f"s{i}" for i in range(1, len(specs))] + ["sw"]
+    return "\n".join(f"Vsw{i} {nodes[i + 1]} {nodes[i]} {spec}" for i, spec in enumerate(specs))
+
+
+def _read_raw(path):
+    """Parse an ngspice raw file (binary or ascii, real data) -> {name: array}."""
+    with open(path, "rb") as f:
+        blob = f.read()
+    m = re.search(rb"^(Binary|Values):\r?\n", blob, re.M)
+    if m is None:
+        raise RuntimeError(f"{path}: no Binary:/Values: section")
+    header = blob[: m.start()].decode("latin-1")
+    hdr = {}
+    names = []
+    in_vars = False
+    for line in header.splitlines():
+        if in_vars and line.startswith(("\t", " ")):
+            names.append(line.split()[1].lower())
+            continue
+        in_vars = line.startswith("Variables:")
+        if ":" in line:
+            k, v = line.split(":", 1)
+            hdr[k.strip().lower()] = v.strip()
+    nvar, npts = int(hdr["no. variables"]), int(hdr["no. points"])
+    if "complex" in hdr.get("flags", "") or len(names) != nvar:
+        raise RuntimeError(f"{path}: unexpected raw header {hdr}")
+    if m.group(1) == b"Binary":
+        data = np.frombuffer(blob, dtype="<f8", count=nvar * npts, offset=m.end())
+    else:
+        toks = blob[m.end():].split()
+        # ascii layout: "<index> v0 v1 ... " per point
+        data = np.array(toks, dtype=float).reshape(npts, nvar + 1)[:, 1:]
+    data = data.reshape(npts, nvar)
+    return {n: data[:, i].copy() for i, n in enumerate(names)}
+
+
+def _period_reduce(t, y, T, n):
+    """Values at k*T and exact averages over [k*T, (k+1)*T] of a sampled signal.
+
+    ngspice's output is treated as piecewise linear between its own time
+    points (which include every switching edge as a breakpoint): the integral
+    is the trapezoid rule, the value at k*T is a linear interpolation.
+    """
+    tk = np.arange(n + 1) * T
+    cum = np.concatenate(([0.0], np.cumsum(np.diff(t) * (y[1:] + y[:-1]) / 2)))
+    i = np.clip(np.searchsorted(t, tk, side="right") - 1, 0, len(t) - 2)
+    yk = y[i] + (y[i + 1] - y[i]) * (tk - t[i]) / (t[i + 1] - t[i])
+    F = cum[i] + (tk - t[i]) * (y[i] + yk) / 2
+    return yk[:n], np.diff(F) / T
+
+
+def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=12.0,
+             io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12):
+    """Simulate the ideal-switch buck in ngspice for len(duty) periods.
+
+    duty: per-period duty d_k in [0, 1].  x0: initial (il, vc, vo); default is
+    the averaged DC steady state of d_0: il = io, vc = vo = d_0*U - RL*io.
+    workdir: keep netlist/raw/log there (default: a temporary directory).
+    max_step: ngspice max time step (default T/200).  edge: switch edge width.
+
+    Returns dict of numpy arrays (length N): time (= k*T), duty, vout_start,
+    il_start, vc_start (values at k*T), vout_avg, il_avg (averages over the
+    period).  Raises RuntimeError if ngspice is missing or fails.
+    """
+    duty = np.asarray(duty, dtype=float).ravel()
+    n = len(duty)
+    if n == 0 or not np.all((duty >= 0) & (duty <= 1)):
+        raise ValueError("duty must be a non-empty sequence of values in [0, 1]")
+    exe = shutil.which("ngspice")
+    if exe is None:
+        raise RuntimeError("ngspice not found on PATH")
+    T = 1.0 / fs
+    if max_step is None:
+        max_step = T / DEFAULT_STEPS_PER_PERIOD
+    if x0 is None:
+        v0 = duty[0] * U - RL * io
+        x0 = (io, v0, v0)
+    il0, vc0, vo0 = x0
+
+    with open(TEMPLATE) as f:
+        template = string.Template(f.read())
+    tmp = None
+    if workdir is None:
+        tmp = tempfile.TemporaryDirectory(prefix="buck_spice_")
+        workdir = tmp.name
+    os.makedirs(workdir, exist_ok=True)
+    try:
+        cir, raw = os.path.join(workdir, "buck.cir"), os.path.join(workdir, "buck.raw")
+        if os.path.exists(raw):
+            os.remove(raw)
+        with open(cir, "w") as f:
+            f.write(template.substitute(
+                switch_sources=_switch_sources(duty, T, U, edge),
+                L=_num(L), RL=_num(RL), C=_num(C), Rc=_num(Rc), Cl=_num(Cl), io=_num(io),
+                il0=_num(il0), vc0=_num(vc0), vo0=_num(vo0),
+                max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw",
+                **{k: (v if isinstance(v, str) else _num(v)) for k, v in SOLVER_OPTIONS.items()}))
+        proc = subprocess.run([exe, "-b", cir], cwd=workdir, capture_output=True, text=True)
+        log = proc.stdout + proc.stderr
+        with open(os.path.join(workdir, "ngspice.log"), "w") as f:
+            f.write(log)
+        vec = _read_raw(raw) if proc.returncode == 0 and os.path.exists(raw) else None
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+    # ngspice -b can exit 0 after aborting the transient ("timestep too
+    # small"), so also require the run to have reached tstop.
+    if vec is None or abs(vec["time"][-1] - n * T) > 1e-6 * T:
+        tail = "\n".join((proc.stderr.strip() or log.strip()).splitlines()[-20:])
+        raise RuntimeError(f"ngspice failed (exit {proc.returncode}); output tail:\n{tail}")
+    t = vec["time"]
+
+    out = {"time": np.arange(n) * T, "duty": duty}
+    for key, name in (("vout", "v(out)"), ("il", "i(vam)"), ("vc", "v(vc)")):
+        start, avg = _period_reduce(t, vec[name], T, n)
+        out[key + "_start"] = start
+        if key != "vc":
+            out[key + "_avg"] = avg
+    return out
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--periods", type=int, default=3001)
+    p.add_argument("--seed", type=int, default=1, help="PRBS LFSR seed")
+    p.add_argument("--bit-periods", type=int, default=8)
+    p.add_argument("--duty-file", help="duty sequence, one value per line (overrides PRBS)")
+    p.add_argument("--cl", type=float, default=10e-6)
+    p.add_argument("--io", type=float, default=1.0)
+    p.add_argument("--L", type=float, default=3.3e-6)
+    p.add_argument("--RL", type=float, default=0.1)
+    p.add_argument("--C", type=float, default=100e-6)
+    p.add_argument("--Rc", type=float, default=0.1)
+    p.add_argument("--fs", type=float, default=330e3)
+    p.add_argument("--U", type=float, default=12.0)
+    p.add_argument("--max-step", type=float, default=None)
+    p.add_argument("--workdir", help="keep netlist, raw file and log here")
+    p.add_argument("--out", default="-", help="CSV output file ('-' = stdout)")
+    p.add_argument("--time", action="store_true", help="print ngspice wall time to stderr")
+    a = p.parse_args(argv)
+
+    if a.duty_file:
+        duty = np.loadtxt(a.duty_file, ndmin=1)
+    else:
+        duty = prbs_duty(a.periods, a.bit_periods, seed=a.seed)
+    params = dict(L=a.L, RL=a.RL, C=a.C, Rc=a.Rc, Cl=a.cl, fs=a.fs, U=a.U, io=a.io)
+    t0 = _time.perf_counter()
+    r = simulate(duty, max_step=a.max_step, workdir=a.workdir, **params)
+    if a.time:
+        print(f"ngspice wall time: {_time.perf_counter() - t0:.3f} s ({len(duty)} periods)",
+              file=sys.stderr)
+
+    n = len(duty)
+    cols = [("time", r["time"]), ("duty", r["duty"]), ("vin", np.full(n, a.U)),
+            ("io", np.full(n, a.io)), ("vout", r["vout_start"]), ("il", r["il_start"]),
+            ("vc", r["vc_start"]), ("vout_avg", r["vout_avg"]), ("il_avg", r["il_avg"])]
+    lines = [f"# {k} = {params[k]!r}" for k in ("fs", "L", "RL", "C", "Rc", "Cl", "U", "io")]
+    lines.append("# source = ngspice ideal switch")
+    lines.append(",".join(c for c, _ in cols))
+    data = np.column_stack([v for _, v in cols])
+    lines += [",".join(repr(float(x)) for x in row) for row in data]
+    text = "\n".join(lines) + "\n"
+    if a.out == "-":
+        sys.stdout.write(text)
+    else:
+        with open(a.out, "w") as f:
+            f.write(text)
+
+
+if __name__ == "__main__":
+    main()
