@@ -125,6 +125,24 @@ impl Converter {
         conv
     }
 
+    /// A converter with every input and parameter at its start value in the variable table.
+    pub fn from_start_values() -> Self {
+        let mut conv = Self::new(Params::default(), Mode::Averaged);
+        for var in variables::VARIABLES {
+            let start = match var.ty {
+                Type::Real { start, .. } => start,
+                Type::Mode { start } => Some(f64::from(start)),
+                Type::Boolean { start } => Some(f64::from(u8::from(start))),
+            };
+            if let Some(value) = start {
+                // Start values lie inside their ranges (pinned by a test), so this cannot fail.
+                let _ = conv.set(var.id, value);
+            }
+        }
+        conv.initialize();
+        conv
+    }
+
     /// Circuit parameters.
     pub fn params(&self) -> &Params {
         &self.params

@@ -136,3 +136,17 @@ fn bad_values_are_rejected_by_name() {
     assert_eq!(conv.step(0.0), Err(ModelError::BadStep(0.0)));
     assert!(conv.step(f64::NAN).is_err());
 }
+
+/// The Rust defaults and the table's start values are one set of numbers.
+#[test]
+fn start_values_are_the_defaults_and_in_range() {
+    let conv = Converter::from_start_values();
+    assert_eq!(*conv.params(), Params::default());
+    assert_eq!(*conv.inputs(), Inputs::default());
+    assert_eq!(conv.mode(), Mode::Averaged);
+    for var in variables::VARIABLES {
+        if let Type::Real { start: Some(s), .. } = var.ty {
+            assert_eq!(var.check_real(s), Ok(s), "{}", var.name);
+        }
+    }
+}

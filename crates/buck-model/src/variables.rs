@@ -182,11 +182,16 @@ impl Variable {
             Type::Real { unit, min, max, .. } => Err(ModelError::OutOfRange {
                 name: self.name,
                 value,
-                range: format!("within [{min:e}, {max:e}] {unit}"),
+                range: format!("within [{}, {}] {unit}", engineering(min), engineering(max)),
             }),
             _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Real" }),
         }
     }
+}
+
+/// Plain decimals for everyday magnitudes, exponent notation for tiny or huge ones.
+fn engineering(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) { format!("{x}") } else { format!("{x:e}") }
 }
 
 /// Value reference of a variable.

@@ -1,0 +1,128 @@
+//! The `modelDescription.xml` of the FMU, derived from the variable table of `buck-model`.
+use buck_model::variables::{self, Causality, Type, Variability, VARIABLES};
+use fmi2_schema as md;
+
+/// `modelIdentifier` and the shared library's file stem.
+pub const MODEL_IDENTIFIER: &str = "BuckConverter";
+
+/// Log categories the FMU accepts in `fmi2SetDebugLogging`.
+pub const LOG_CATEGORIES: &[(&str, &str)] = &[
+    ("logStatusError", "Errors: rejected values and calls (always logged)"),
+    ("logStatusWarning", "Warnings"),
+    ("logCalls", "Every FMI call (only with debug logging on)"),
+];
+
+/// The complete model description.
+pub fn model_description() -> md::ModelDescription {
+    let variables: Vec<md::ScalarVariable> = VARIABLES.iter().map(scalar_variable).collect();
+    let outputs: Vec<md::Unknown> = VARIABLES
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .map(|(i, _)| md::Unknown { index: i as u32 + 1, dependencies: None })
+        .collect();
+    md::ModelDescription {
+        fmi_version: "2.0".into(),
+        model_name: MODEL_IDENTIFIER.into(),
+        guid: variables::guid(),
+        description: Some(
+            "Buck DC-DC converter (BMR450 thesis power stage): L with RL, C with ESR Rc, load capacitor Cl, \
+             constant load current; exact averaged or switched PWM"
+                .into(),
+        ),
+        generation_tool: Some(format!("buckid {}", env!("CARGO_PKG_VERSION"))),
+        variable_naming_convention: Some("flat".into()),
+        number_of_event_indicators: None,
+        model_exchange: None,
+        co_simulation: Some(md::CoSimulation {
+            model_identifier: MODEL_IDENTIFIER.into(),
+            needs_execution_tool: Some(false),
+            can_handle_variable_communication_step_size: Some(true),
+            can_interpolate_inputs: Some(false),
+            max_output_derivative_order: Some(0),
+            can_be_instantiated_only_once_per_process: Some(false),
+            can_not_use_memory_management_functions: Some(true),
+            can_get_and_set_fmu_state: Some(true),
+            can_serialize_fmu_state: Some(true),
+            provides_directional_derivative: Some(false),
+        }),
+        unit_definitions: Some(md::UnitDefinitions {
+            units: variables::UNITS
+                .iter()
+                .map(|(name, [kg, m, s, a])| md::Unit {
+                    name: (*name).into(),
+                    base_unit: Some(md::BaseUnit { kg: *kg, m: *m, s: *s, a: *a }),
+                })
+                .collect(),
+        }),
+        type_definitions: Some(md::TypeDefinitions {
+            simple_types: vec![md::SimpleType {
+                name: variables::MODE_TYPE.into(),
+                description: Some("How the switch node is modelled".into()),
+                enumeration: Some(md::EnumerationType {
+                    items: variables::MODE_ITEMS
+                        .iter()
+                        .zip(1..)
+                        .map(|((name, desc), value)| md::Item {
+                            name: (*name).into(),
+                            value,
+                            description: Some((*desc).into()),
+                        })
+                        .collect(),
+                }),
+            }],
+        }),
+        log_categories: Some(md::LogCategories {
+            categories: LOG_CATEGORIES
+                .iter()
+                .map(|(name, desc)| md::Category { name: (*name).into(), description: Some((*desc).into()) })
+                .collect(),
+        }),
+        default_experiment: Some(md::DefaultExperiment {
+            start_time: Some(0.0),
+            stop_time: Some(0.01),
+            tolerance: None,
+            step_size: Some(1.0 / 330e3),
+        }),
+        model_variables: md::ModelVariables { variables },
+        model_structure: md::ModelStructure {
+            outputs: Some(md::Unknowns { unknowns: outputs.clone() }),
+            derivatives: None,
+            initial_unknowns: Some(md::Unknowns { unknowns: outputs }),
+        },
+    }
+}
+
+fn scalar_variable(v: &variables::Variable) -> md::ScalarVariable {
+    let finite = |x: f64| x.is_finite().then_some(x);
+    let ty = match v.ty {
+        Type::Real { unit, min, max, start } => md::VariableType::Real(md::RealType {
+            declared_type: None,
+            unit: Some(unit.into()),
+            min: finite(min),
+            max: finite(max),
+            start,
+        }),
+        Type::Mode { start } => md::VariableType::Enumeration(md::EnumerationVariable {
+            declared_type: variables::MODE_TYPE.into(),
+            start: Some(start),
+        }),
+        Type::Boolean { start } => md::VariableType::Boolean(md::BooleanType { start: Some(start) }),
+    };
+    md::ScalarVariable {
+        name: v.name.into(),
+        value_reference: v.vr(),
+        description: Some(v.description.into()),
+        causality: match v.causality {
+            Causality::Parameter => md::Causality::Parameter,
+            Causality::Input => md::Causality::Input,
+            Causality::Output => md::Causality::Output,
+        },
+        variability: match v.variability {
+            Variability::Fixed => md::Variability::Fixed,
+            Variability::Continuous => md::Variability::Continuous,
+        },
+        initial: None,
+        ty,
+    }
+}
