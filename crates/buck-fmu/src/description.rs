@@ -126,3 +126,34 @@ fn scalar_variable(v: &variables::Variable) -> md::ScalarVariable {
         ty,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn committed() -> String {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../modelDescription/modelDescription.xml");
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"))
+    }
+
+    /// Fails when the variable table changed but `cargo xtask model-description` was not run.
+    #[test]
+    fn committed_model_description_is_up_to_date() {
+        assert!(
+            committed() == model_description().to_xml().unwrap(),
+            "modelDescription/modelDescription.xml is stale: run `cargo xtask model-description`"
+        );
+    }
+
+    /// Reading the committed XML back gives the same description (names, references, types,
+    /// ranges, start values, structure) as the table.
+    #[test]
+    fn committed_model_description_reads_back_as_the_table() {
+        let read = md::ModelDescription::from_xml(&committed()).unwrap();
+        assert_eq!(read, model_description());
+        assert_eq!(read.problems(), Vec::<String>::new());
+        for v in VARIABLES {
+            assert_eq!(read.variable(v.name).map(|s| s.value_reference), Some(v.vr()), "{}", v.name);
+        }
+    }
+}
