@@ -21,6 +21,10 @@ pub fn model_description() -> md::ModelDescription {
         .filter(|(_, v)| v.causality == Causality::Output)
         .map(|(i, _)| md::Unknown { index: i as u32 + 1, dependencies: None })
         .collect();
+    // Outputs are functions of the state only (no direct feed-through); during
+    // initialization they depend on the start values, so InitialUnknowns keep the default.
+    let no_feedthrough: Vec<md::Unknown> =
+        outputs.iter().map(|u| md::Unknown { dependencies: Some(String::new()), ..u.clone() }).collect();
     md::ModelDescription {
         fmi_version: "2.0".into(),
         model_name: MODEL_IDENTIFIER.into(),
@@ -55,23 +59,7 @@ pub fn model_description() -> md::ModelDescription {
                 })
                 .collect(),
         }),
-        type_definitions: Some(md::TypeDefinitions {
-            simple_types: vec![md::SimpleType {
-                name: variables::MODE_TYPE.into(),
-                description: Some("How the switch node is modelled".into()),
-                enumeration: Some(md::EnumerationType {
-                    items: variables::MODE_ITEMS
-                        .iter()
-                        .zip(1..)
-                        .map(|((name, desc), value)| md::Item {
-                            name: (*name).into(),
-                            value,
-                            description: Some((*desc).into()),
-                        })
-                        .collect(),
-                }),
-            }],
-        }),
+        type_definitions: None,
         log_categories: Some(md::LogCategories {
             categories: LOG_CATEGORIES
                 .iter()
@@ -86,7 +74,7 @@ pub fn model_description() -> md::ModelDescription {
         }),
         model_variables: md::ModelVariables { variables },
         model_structure: md::ModelStructure {
-            outputs: Some(md::Unknowns { unknowns: outputs.clone() }),
+            outputs: Some(md::Unknowns { unknowns: no_feedthrough }),
             derivatives: None,
             initial_unknowns: Some(md::Unknowns { unknowns: outputs }),
         },
@@ -103,8 +91,9 @@ fn scalar_variable(v: &variables::Variable) -> md::ScalarVariable {
             max: finite(max),
             start,
         }),
-        Type::Mode { start } => md::VariableType::Enumeration(md::EnumerationVariable {
-            declared_type: variables::MODE_TYPE.into(),
+        Type::Mode { start } => md::VariableType::Integer(md::IntegerType {
+            min: Some(1),
+            max: Some(variables::MODE_ITEMS.len() as i32),
             start: Some(start),
         }),
         Type::Boolean { start } => md::VariableType::Boolean(md::BooleanType { start: Some(start) }),

@@ -49,7 +49,9 @@ pub struct Outputs {
 }
 
 /// Relative tolerance (of the period) within which a step end snaps onto a switching event, so
-/// that a host stepping by `T` in floating point does not create femtosecond slivers.
+/// that a host stepping by `T` in floating point does not create femtosecond slivers or latch
+/// the next period's duty a rounding error too early. A step that ends away from any event
+/// is simulated exactly, however short.
 const SNAP: f64 = 1e-9;
 /// Pieces with cached transition matrices (PRBS between two duty levels needs four).
 const CACHE_SLOTS: usize = 8;
@@ -299,7 +301,7 @@ impl Converter {
         let period = self.params.period();
         let snap = SNAP * period;
         let mut remaining = h;
-        while remaining > snap {
+        loop {
             if self.at_period_start {
                 self.latched_duty = self.inputs.duty;
                 self.at_period_start = false;
@@ -318,20 +320,26 @@ impl Converter {
                 (period, 0.0)
             };
             let to_event = event - self.phase;
-            if remaining + snap >= to_event {
-                self.advance(to_event, u_sw);
-                remaining -= to_event;
-                self.phase = event;
-                if event >= period {
-                    self.last_average = self.z / period;
-                    self.z = Vector3::zeros();
-                    self.phase = 0.0;
-                    self.at_period_start = true;
-                }
-            } else {
+            if remaining + snap < to_event {
+                // The step ends before the next event: advance exactly, however short.
                 self.advance(remaining, u_sw);
                 self.phase += remaining;
-                remaining = 0.0;
+                break;
+            }
+            self.advance(to_event, u_sw);
+            remaining -= to_event;
+            self.phase = event;
+            if event >= period {
+                self.last_average = self.z / period;
+                self.z = Vector3::zeros();
+                self.phase = 0.0;
+                self.at_period_start = true;
+            }
+            // What is left after an event within the snap tolerance is the master's rounding
+            // (e.g. a sum of steps of T), not time to simulate: the next period must latch the
+            // duty the master sets after this step.
+            if remaining <= snap {
+                break;
             }
         }
         self.time += h;

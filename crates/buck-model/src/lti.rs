@@ -47,21 +47,52 @@ impl Lti {
         self.b.ncols()
     }
 
-    /// Exact discretization with the state integral, for inputs held over `tau` seconds.
-    pub fn discretize(&self, tau: f64) -> Discrete {
+    /// Generator of `[x; z; u]` with `dx = A·x + B·u`, `dz = x`, `du = 0`; `integral` adds the
+    /// `dz = x` block (zero for derivative generators, whose `z` rows carry no identity).
+    fn generator(&self, integral: bool) -> DMatrix<f64> {
         let (n, m) = (self.states(), self.inputs());
-        // Augmented generator over [x; z; u]: dx = A x + B u, dz = x, du = 0.
         let mut g = DMatrix::zeros(2 * n + m, 2 * n + m);
         g.view_mut((0, 0), (n, n)).copy_from(&self.a);
         g.view_mut((0, 2 * n), (n, m)).copy_from(&self.b);
-        g.view_mut((n, 0), (n, n)).fill_with_identity();
-        let e = (g * tau).exp();
-        Discrete {
-            ad: e.view((0, 0), (n, n)).into_owned(),
-            bd: e.view((0, 2 * n), (n, m)).into_owned(),
-            ia: e.view((n, 0), (n, n)).into_owned(),
-            ib: e.view((n, 2 * n), (n, m)).into_owned(),
+        if integral {
+            g.view_mut((n, 0), (n, n)).fill_with_identity();
         }
+        g
+    }
+
+    /// Splits `exp(generator·τ)` (or its derivative) into the four discrete blocks.
+    fn blocks(&self, e: &DMatrix<f64>, offset: (usize, usize)) -> Discrete {
+        let (n, m) = (self.states(), self.inputs());
+        let (r, c) = offset;
+        Discrete {
+            ad: e.view((r, c), (n, n)).into_owned(),
+            bd: e.view((r, c + 2 * n), (n, m)).into_owned(),
+            ia: e.view((r + n, c), (n, n)).into_owned(),
+            ib: e.view((r + n, c + 2 * n), (n, m)).into_owned(),
+        }
+    }
+
+    /// Exact discretization with the state integral, for inputs held over `tau` seconds.
+    pub fn discretize(&self, tau: f64) -> Discrete {
+        self.blocks(&(self.generator(true) * tau).exp(), (0, 0))
+    }
+
+    /// [`Lti::discretize`] and its derivative with respect to a parameter `θ`, given
+    /// `derivative.a = ∂A/∂θ` and `derivative.b = ∂B/∂θ`.
+    ///
+    /// Uses the block identity `exp([[X, Y], [0, X]]) = [[e^X, D_Y e^X], [0, e^X]]`, where
+    /// `D_Y e^X` is the Fréchet derivative of the exponential in direction `Y`: exact, no
+    /// finite differences.
+    pub fn discretize_with_derivative(&self, derivative: &Lti, tau: f64) -> (Discrete, Discrete) {
+        let g = self.generator(true) * tau;
+        let dg = derivative.generator(false) * tau;
+        let k = g.nrows();
+        let mut big = DMatrix::zeros(2 * k, 2 * k);
+        big.view_mut((0, 0), (k, k)).copy_from(&g);
+        big.view_mut((k, k), (k, k)).copy_from(&g);
+        big.view_mut((0, k), (k, k)).copy_from(&dg);
+        let e = big.exp();
+        (self.blocks(&e, (0, 0)), self.blocks(&e, (0, k)))
     }
 }
 
@@ -80,6 +111,31 @@ mod tests {
         assert_relative_eq!(d.bd[0], b / a * (1.0 - decay), max_relative = 1e-12);
         assert_relative_eq!(d.ia[0], (1.0 - decay) / a, max_relative = 1e-12);
         assert_relative_eq!(d.ib[0], b / a * (tau - (1.0 - decay) / a), max_relative = 1e-12);
+    }
+
+    /// The block-exponential derivative agrees with a central difference of `discretize`.
+    #[test]
+    fn derivative_matches_central_difference() {
+        let tau = 1.3e-6;
+        let build = |cl: f64| crate::Params { cl, ..Default::default() }.full_lti();
+        let cl = 2e-6;
+        // dA/dCl and dB/dCl of the averaged model: the entries that scale with 1/Cl.
+        let base = build(cl);
+        let mut da = base.a.clone() * 0.0;
+        for j in 0..3 {
+            da[(2, j)] = -base.a[(2, j)] / cl;
+        }
+        let mut db = base.b.clone() * 0.0;
+        db[(2, 1)] = -base.b[(2, 1)] / cl;
+        let (_, d) = base.discretize_with_derivative(&Lti { a: da, b: db }, tau);
+        let h = cl * 1e-6;
+        let (up, down) = (build(cl + h).discretize(tau), build(cl - h).discretize(tau));
+        let fd = |f: fn(&Discrete) -> &DMatrix<f64>| (f(&up) - f(&down)) / (2.0 * h);
+        let close = |a: &DMatrix<f64>, b: &DMatrix<f64>| (a - b).amax() <= 1e-6 * b.amax().max(1e-30);
+        assert!(close(&d.ad, &fd(|x| &x.ad)), "ad: {} vs {}", d.ad, fd(|x| &x.ad));
+        assert!(close(&d.bd, &fd(|x| &x.bd)));
+        assert!(close(&d.ia, &fd(|x| &x.ia)));
+        assert!(close(&d.ib, &fd(|x| &x.ib)));
     }
 
     /// Two half steps compose into one full step (semigroup property), also for the integral.

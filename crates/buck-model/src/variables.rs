@@ -63,9 +63,10 @@ pub enum Type {
         /// Start value (`None` for calculated outputs).
         start: Option<f64>,
     },
-    /// An enumeration of type [`MODE_TYPE`] with the items of [`MODE_ITEMS`].
+    /// The switch-node model as an FMI Integer: 1 + the index in [`MODE_ITEMS`]. An Integer
+    /// rather than an Enumeration because OSP libcosim ignores FMI 2.0 Enumerations.
     Mode {
-        /// Start item (1-based, as in FMI enumerations).
+        /// Start value.
         start: i32,
     },
     /// A Boolean.
@@ -138,7 +139,7 @@ pub const VARIABLES: &[Variable] = &[
         causality: Parameter,
         variability: Variability::Fixed,
         ty: Type::Mode { start: 1 },
-        description: "Switch-node model: averaged or exact switched PWM",
+        description: "Switch-node model: 1 = averaged, 2 = switched (exact PWM)",
     },
     Variable {
         id: VarId::SteadyStart,
@@ -150,9 +151,7 @@ pub const VARIABLES: &[Variable] = &[
     },
 ];
 
-/// Name of the enumeration type of `mode`.
-pub const MODE_TYPE: &str = "Mode";
-/// Items of [`MODE_TYPE`], in order (FMI values 1, 2, …): name and description.
+/// Values of `mode`, in order (FMI values 1, 2, …): name and description.
 pub const MODE_ITEMS: &[(&str, &str)] = &[
     ("averaged", "State-space average, switch node = duty*vin"),
     ("switched", "Exact trailing-edge PWM, duty latched at each period start"),
@@ -182,7 +181,7 @@ impl Variable {
             Type::Real { unit, min, max, .. } => Err(ModelError::OutOfRange {
                 name: self.name,
                 value,
-                range: format!("within [{}, {}] {unit}", engineering(min), engineering(max)),
+                range: format!("within [{}, {}]{}", engineering(min), engineering(max), if unit == "1" { String::new() } else { format!(" {unit}") }),
             }),
             _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Real" }),
         }
@@ -217,7 +216,7 @@ pub fn guid() -> String {
     for v in VARIABLES {
         hash.update(format!("{}|{:?}|{:?}|{:?}|{:?}|{}\n", v.name, v.id, v.causality, v.variability, v.ty, v.description));
     }
-    for (name, desc) in MODE_ITEMS {
+    for (name, desc) in MODE_ITEMS.iter() {
         hash.update(format!("{name}|{desc}\n"));
     }
     let h = hash.finalize();

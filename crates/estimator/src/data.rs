@@ -1,0 +1,273 @@
+//! Data sets: one row per switching period, from an FMU run, the in-process model or a CSV file.
+//!
+//! Row `k` holds the duty applied during period `k` (`[k·T, (k+1)·T)`), the outputs sampled at
+//! the period start `k·T` (`vout`, `il`) and, when the source offers them, the exact averages
+//! over period `k` (`vout_avg`, `il_avg`).
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use crate::error::{EstimatorError, data_err};
+
+/// Measured or simulated signals at one sample per switching period.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DataSet {
+    /// Period start times [s], uniformly spaced by `1/fs`.
+    pub time: Vec<f64>,
+    /// Duty applied during each period.
+    pub duty: Vec<f64>,
+    /// Input voltage [V].
+    pub vin: Vec<f64>,
+    /// Load current [A].
+    pub io: Vec<f64>,
+    /// Output voltage at each period start [V].
+    pub vout: Vec<f64>,
+    /// Inductor current at each period start [A], when measured.
+    pub il: Option<Vec<f64>>,
+    /// Average output voltage over each period [V], when available.
+    pub vout_avg: Option<Vec<f64>>,
+    /// Average inductor current over each period [A], when available.
+    pub il_avg: Option<Vec<f64>>,
+    /// `# key = value` metadata (e.g. `fs`, `L`, `U`), as read or to be written.
+    pub meta: BTreeMap<String, String>,
+}
+
+/// Columns of the CSV contract, in the order they are written.
+const COLUMNS: [&str; 8] = ["time", "duty", "vin", "io", "vout", "il", "vout_avg", "il_avg"];
+
+impl DataSet {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+
+    /// Sample period [s] (the switching period).
+    pub fn sample_period(&self) -> f64 {
+        if self.len() < 2 { f64::NAN } else { (self.time[self.len() - 1] - self.time[0]) / (self.len() - 1) as f64 }
+    }
+
+    /// A metadata value parsed as a number.
+    pub fn meta_f64(&self, key: &str) -> Result<Option<f64>, EstimatorError> {
+        self.meta
+            .get(key)
+            .map(|v| v.trim().parse::<f64>().map_err(|_| data_err(format!("metadata `{key} = {v}` is not a number"))))
+            .transpose()
+    }
+
+    /// Rows `range` as a new data set (metadata kept).
+    pub fn slice(&self, range: std::ops::Range<usize>) -> DataSet {
+        let cut = |v: &Vec<f64>| v[range.clone()].to_vec();
+        DataSet {
+            time: cut(&self.time),
+            duty: cut(&self.duty),
+            vin: cut(&self.vin),
+            io: cut(&self.io),
+            vout: cut(&self.vout),
+            il: self.il.as_ref().map(cut),
+            vout_avg: self.vout_avg.as_ref().map(cut),
+            il_avg: self.il_avg.as_ref().map(cut),
+            meta: self.meta.clone(),
+        }
+    }
+
+    /// Checks lengths, finiteness and uniform time; the error names the column and row.
+    pub fn validate(&self) -> Result<(), EstimatorError> {
+        let n = self.len();
+        if n < 2 {
+            return Err(data_err(format!("the data set has {n} samples; at least 2 are needed")));
+        }
+        for (name, col) in self.columns() {
+            let Some(col) = col else { continue };
+            if col.len() != n {
+                return Err(data_err(format!("column `{name}` has {} values, `time` has {n}", col.len())));
+            }
+            if let Some(i) = col.iter().position(|v| !v.is_finite()) {
+                return Err(data_err(format!("column `{name}` row {}: value {} is not finite", i + 1, col[i])));
+            }
+        }
+        let dt = self.sample_period();
+        if !(dt > 0.0) {
+            return Err(data_err("`time` must increase"));
+        }
+        if let Some(i) = (1..n).find(|&i| ((self.time[i] - self.time[i - 1]) - dt).abs() > 1e-3 * dt) {
+            return Err(data_err(format!(
+                "`time` is not uniform: row {} follows row {} by {:e} s, the mean spacing is {dt:e} s",
+                i + 1,
+                i,
+                self.time[i] - self.time[i - 1]
+            )));
+        }
+        Ok(())
+    }
+
+    fn columns(&self) -> [(&'static str, Option<&Vec<f64>>); 8] {
+        [
+            ("time", Some(&self.time)),
+            ("duty", Some(&self.duty)),
+            ("vin", Some(&self.vin)),
+            ("io", Some(&self.io)),
+            ("vout", Some(&self.vout)),
+            ("il", self.il.as_ref()),
+            ("vout_avg", self.vout_avg.as_ref()),
+            ("il_avg", self.il_avg.as_ref()),
+        ]
+    }
+
+    /// Reads the CSV contract: `# key = value` lines, one header row, SI units; `time` and
+    /// `vout` required; `duty`, `vin`, `io`, `il`, `vout_avg`, `il_avg` optional (missing
+    /// `duty`/`vin`/`io` are taken from metadata `duty`, `U`, `io` or are an error); unknown
+    /// columns ignored.
+    pub fn read_csv(path: &Path) -> Result<DataSet, EstimatorError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| EstimatorError::Io { path: path.display().to_string(), source })?;
+        Self::parse_csv(&text).map_err(|e| data_err(format!("{}: {e}", path.display())))
+    }
+
+    /// Parses CSV text (see [`DataSet::read_csv`]).
+    pub fn parse_csv(text: &str) -> Result<DataSet, EstimatorError> {
+        let mut meta = BTreeMap::new();
+        let mut body_start = 0;
+        let mut header_line = 0;
+        for (i, line) in text.lines().enumerate() {
+            let trimmed = line.trim();
+            if let Some(rest) = trimmed.strip_prefix('#') {
+                if let Some((k, v)) = rest.split_once('=') {
+                    meta.insert(k.trim().to_string(), v.trim().to_string());
+                }
+                body_start += line.len() + 1;
+            } else if trimmed.is_empty() {
+                body_start += line.len() + 1;
+            } else {
+                header_line = i + 1;
+                break;
+            }
+        }
+        let body = text.get(body_start.min(text.len())..).unwrap_or("");
+        if body.trim().is_empty() {
+            return Err(data_err("no header row and no data (empty file?)"));
+        }
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(body.as_bytes());
+        let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
+        let index = |name: &str| headers.iter().position(|h| h == name);
+        let wanted: Vec<Option<usize>> = COLUMNS.iter().map(|c| index(c)).collect();
+        for required in ["time", "vout"] {
+            if index(required).is_none() {
+                let found: Vec<&str> = headers.iter().collect();
+                return Err(data_err(format!("line {header_line}: required column `{required}` is missing (found: {})", found.join(", "))));
+            }
+        }
+        let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
+        for (r, record) in reader.records().enumerate() {
+            let line = header_line + 1 + r;
+            let record = record.map_err(|e| data_err(format!("line {line}: {e}")))?;
+            for (c, idx) in wanted.iter().enumerate() {
+                let Some(idx) = idx else { continue };
+                let field = record.get(*idx).unwrap_or("");
+                let value: f64 = field.parse().map_err(|_| {
+                    data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c]))
+                })?;
+                if !value.is_finite() {
+                    return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
+                }
+                cols[c].push(value);
+            }
+        }
+        let n = cols[0].len();
+        if n == 0 {
+            return Err(data_err("the file has a header but no data rows"));
+        }
+        let mut data = DataSet { meta, ..Default::default() };
+        let fill = |c: usize, key: &str, data: &DataSet| -> Result<Vec<f64>, EstimatorError> {
+            if wanted[c].is_some() {
+                return Ok(cols[c].clone());
+            }
+            match data.meta_f64(key)? {
+                Some(v) => Ok(vec![v; n]),
+                None => Err(data_err(format!("column `{}` is missing and no `# {key} = …` metadata gives it", COLUMNS[c]))),
+            }
+        };
+        data.duty = fill(1, "duty", &data)?;
+        data.vin = fill(2, "U", &data)?;
+        data.io = fill(3, "io", &data)?;
+        let optional = |c: usize| wanted[c].is_some().then(|| cols[c].clone());
+        data.il = optional(5);
+        data.vout_avg = optional(6);
+        data.il_avg = optional(7);
+        data.time = std::mem::take(&mut cols[0]);
+        data.vout = std::mem::take(&mut cols[4]);
+        data.validate()?;
+        Ok(data)
+    }
+
+    /// Writes the CSV contract (metadata first, then the columns that are present).
+    pub fn write_csv(&self, path: &Path) -> Result<(), EstimatorError> {
+        let io_err = |source| EstimatorError::Io { path: path.display().to_string(), source };
+        std::fs::write(path, self.to_csv()).map_err(io_err)
+    }
+
+    /// The CSV text of [`DataSet::write_csv`].
+    pub fn to_csv(&self) -> String {
+        let mut out = String::new();
+        for (k, v) in &self.meta {
+            out.push_str(&format!("# {k} = {v}\n"));
+        }
+        let present: Vec<(&str, &Vec<f64>)> =
+            self.columns().into_iter().filter_map(|(n, c)| c.map(|c| (n, c))).collect();
+        out.push_str(&present.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(","));
+        out.push('\n');
+        for i in 0..self.len() {
+            let row: Vec<String> = present.iter().map(|(_, c)| format!("{:e}", c[i])).collect();
+            out.push_str(&row.join(","));
+            out.push('\n');
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "# fs = 330000\n# U = 12\ntime,duty,vout,extra\n0,0.4,4.7,x\n3.0303e-6,0.6,4.8,y\n6.0606e-6,0.6,4.9,z\n";
+
+    #[test]
+    fn reads_metadata_defaults_and_ignores_unknown_columns() {
+        let d = DataSet::parse_csv(&GOOD.replace(",extra", "").replace(",x", "").replace(",y", "").replace(",z", "").replace("# U = 12\n", "# U = 12\n# io = 2\n")).unwrap();
+        assert_eq!(d.len(), 3);
+        assert_eq!(d.vin, vec![12.0; 3]);
+        assert_eq!(d.io, vec![2.0; 3]);
+        assert_eq!(d.meta_f64("fs").unwrap(), Some(330000.0));
+        assert!(d.il.is_none());
+    }
+
+    #[test]
+    fn bad_files_give_errors_naming_the_problem() {
+        let cases = [
+            ("", "empty"),
+            ("# only = meta\n", "empty"),
+            ("time,vout\n", "no data rows"),
+            ("time,duty\n0,1\n", "`vout` is missing"),
+            ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,nan,0.5,12,1\n", "line 3: column `vout`"),
+            ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,abc,0.5,12,1\n", "line 3: column `vout` value \"abc\""),
+            ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1\n5e-6,1,0.5,12,1\n", "not uniform"),
+            ("time,vout\n0,1\n1e-6,1\n", "column `duty` is missing"),
+            ("time,vout,duty,vin,io\n0,1,0.5,12\n", "line 2"),
+        ];
+        for (text, needle) in cases {
+            let err = DataSet::parse_csv(text).unwrap_err().to_string();
+            assert!(err.contains(needle), "{text:?}: {err:?} lacks {needle:?}");
+        }
+    }
+
+    #[test]
+    fn csv_round_trips() {
+        let mut d = DataSet::parse_csv("# U = 12\n# io = 1\ntime,duty,vout,il\n0,0.4,4.7,1.1\n1e-6,0.6,4.8,0.9\n").unwrap();
+        d.meta.insert("note".into(), "x".into());
+        let back = DataSet::parse_csv(&d.to_csv()).unwrap();
+        assert_eq!(back, d);
+    }
+}

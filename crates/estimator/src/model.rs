@@ -1,0 +1,447 @@
+//! Grey-box model structures of the buck converter at one sample per switching period.
+//!
+//! Each structure turns circuit values and a data set into a per-sample affine predictor
+//!
+//! ```text
+//! x[k+1] = F_j·x[k] + G_j·u[k]        y[k] = H_j·x[k] + D_j·u[k]
+//! ```
+//!
+//! where `j` is the sample's input level (one level for the averaged and reduced models, one
+//! per distinct duty for the sampled-data PWM model), together with the exact derivatives of
+//! `F, G, H, D` with respect to the free circuit parameters (log-parameterized).
+use buck_model::Params;
+use buck_model::lti::{Discrete, Lti};
+use nalgebra::DMatrix;
+
+use crate::data::DataSet;
+use crate::error::EstimatorError;
+
+/// Which grey-box model to fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// Averaged third-order model, duty → outputs (switch node = `d·U`).
+    Averaged,
+    /// Sampled-data PWM model: exact for the switched circuit sampled at period starts
+    /// (switching ripple, trailing-edge modulation within the period).
+    Pwm,
+    /// Reduced second-order model: the measured inductor current drives `vc`, `vo`.
+    Reduced,
+}
+
+impl Structure {
+    /// Name used in the CLI and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Structure::Averaged => "averaged",
+            Structure::Pwm => "pwm",
+            Structure::Reduced => "reduced",
+        }
+    }
+
+    /// Parses a CLI name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        [Structure::Averaged, Structure::Pwm, Structure::Reduced].into_iter().find(|m| m.name() == s)
+    }
+}
+
+/// Which samples the outputs are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sampling {
+    /// Instantaneous values at each period start (`vout`, `il` columns).
+    PeriodStart,
+    /// Exact averages over each period (`vout_avg`, `il_avg` columns).
+    PeriodAverage,
+}
+
+/// A measured output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signal {
+    /// Output voltage.
+    Vout,
+    /// Inductor current.
+    Il,
+}
+
+/// A circuit parameter that can be estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Free {
+    /// Load capacitance.
+    Cl,
+    /// Inductance.
+    L,
+    /// Inductor series resistance.
+    RL,
+    /// Main capacitance.
+    C,
+    /// ESR of the main capacitance.
+    Rc,
+}
+
+impl Free {
+    /// Name as in the variable table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Free::Cl => "Cl",
+            Free::L => "L",
+            Free::RL => "RL",
+            Free::C => "C",
+            Free::Rc => "Rc",
+        }
+    }
+
+    /// Index in the monomial exponent arrays `[L, RL, C, Rc, Cl]`.
+    fn slot(self) -> usize {
+        match self {
+            Free::L => 0,
+            Free::RL => 1,
+            Free::C => 2,
+            Free::Rc => 3,
+            Free::Cl => 4,
+        }
+    }
+
+    /// Reads the value from circuit parameters.
+    pub fn get(self, p: &Params) -> f64 {
+        [p.l, p.rl, p.c, p.rc, p.cl][self.slot()]
+    }
+
+    /// Writes the value into circuit parameters.
+    pub fn set(self, p: &mut Params, value: f64) {
+        match self {
+            Free::L => p.l = value,
+            Free::RL => p.rl = value,
+            Free::C => p.c = value,
+            Free::Rc => p.rc = value,
+            Free::Cl => p.cl = value,
+        }
+    }
+}
+
+/// A matrix entry `coef · L^e0 · RL^e1 · C^e2 · Rc^e3 · Cl^e4`.
+#[derive(Debug, Clone, Copy)]
+struct Term {
+    row: usize,
+    col: usize,
+    coef: f64,
+    exps: [i32; 5],
+}
+
+const fn t(row: usize, col: usize, coef: f64, exps: [i32; 5]) -> Term {
+    Term { row, col, coef, exps }
+}
+
+/// Averaged third-order model `[il, vc, vo]`, inputs `[u_sw, io]` (see `buck_model::Params`).
+const FULL_A: &[Term] = &[
+    t(0, 0, -1.0, [-1, 1, 0, 0, 0]),
+    t(0, 2, -1.0, [-1, 0, 0, 0, 0]),
+    t(1, 1, -1.0, [0, 0, -1, -1, 0]),
+    t(1, 2, 1.0, [0, 0, -1, -1, 0]),
+    t(2, 0, 1.0, [0, 0, 0, 0, -1]),
+    t(2, 1, 1.0, [0, 0, 0, -1, -1]),
+    t(2, 2, -1.0, [0, 0, 0, -1, -1]),
+];
+const FULL_B: &[Term] = &[t(0, 0, 1.0, [-1, 0, 0, 0, 0]), t(2, 1, -1.0, [0, 0, 0, 0, -1])];
+/// Reduced model `[vc, vo]`, inputs `[il, io]`.
+const REDUCED_A: &[Term] = &[
+    t(0, 0, -1.0, [0, 0, -1, -1, 0]),
+    t(0, 1, 1.0, [0, 0, -1, -1, 0]),
+    t(1, 0, 1.0, [0, 0, 0, -1, -1]),
+    t(1, 1, -1.0, [0, 0, 0, -1, -1]),
+];
+const REDUCED_B: &[Term] = &[t(1, 0, 1.0, [0, 0, 0, 0, -1]), t(1, 1, -1.0, [0, 0, 0, 0, -1])];
+
+fn values(p: &Params) -> [f64; 5] {
+    [p.l, p.rl, p.c, p.rc, p.cl]
+}
+
+/// Evaluates a term matrix, or its derivative with respect to `ln p[slot]` when `slot` is set.
+fn build(terms: &[Term], rows: usize, cols: usize, p: &Params, slot: Option<usize>) -> DMatrix<f64> {
+    let v = values(p);
+    let mut m = DMatrix::zeros(rows, cols);
+    for term in terms {
+        let value = term.coef * term.exps.iter().zip(v).map(|(&e, x)| x.powi(e)).product::<f64>();
+        m[(term.row, term.col)] += match slot {
+            None => value,
+            Some(s) => f64::from(term.exps[s]) * value,
+        };
+    }
+    m
+}
+
+/// One sample's affine maps, flattened row-major for the predictor's inner loop.
+#[derive(Debug, Clone, Default)]
+pub struct Maps {
+    /// `n × n`.
+    pub f: Vec<f64>,
+    /// `n × nu`.
+    pub g: Vec<f64>,
+    /// `ny × n`.
+    pub h: Vec<f64>,
+    /// `ny × nu`.
+    pub d: Vec<f64>,
+}
+
+impl Maps {
+    fn from(f: &DMatrix<f64>, g: &DMatrix<f64>, h: &DMatrix<f64>, d: &DMatrix<f64>) -> Self {
+        let flat = |m: &DMatrix<f64>| m.transpose().as_slice().to_vec();
+        Self { f: flat(f), g: flat(g), h: flat(h), d: flat(d) }
+    }
+}
+
+/// Maps of one input level and their derivatives with respect to each free parameter.
+#[derive(Debug, Clone, Default)]
+pub struct Level {
+    /// Value.
+    pub maps: Maps,
+    /// `∂/∂ln θ_i` for each free parameter `i`.
+    pub derivs: Vec<Maps>,
+}
+
+/// A model structure bound to a data set: inputs, levels and measured outputs per sample.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// The structure.
+    pub structure: Structure,
+    /// Output sampling.
+    pub sampling: Sampling,
+    /// Measured outputs, in order.
+    pub outputs: Vec<Signal>,
+    /// Free parameters, in order.
+    pub free: Vec<Free>,
+    /// Distinct duty levels (PWM model) or a single placeholder.
+    levels: Vec<f64>,
+    /// Level index of each sample.
+    pub level_of: Vec<usize>,
+    /// Input vector of each sample, `nu` values each.
+    pub u: Vec<f64>,
+    /// Measured outputs of each sample, `ny` values each.
+    pub y: Vec<f64>,
+    /// Switching period [s].
+    period: f64,
+}
+
+/// Largest number of distinct duty values the PWM model accepts (one exact map per value).
+pub const MAX_PWM_LEVELS: usize = 64;
+
+impl Model {
+    /// Binds `structure` to `data`. Errors name a missing column or an unusable duty sequence.
+    pub fn new(
+        structure: Structure,
+        sampling: Sampling,
+        outputs: &[Signal],
+        free: &[Free],
+        data: &DataSet,
+        period: f64,
+    ) -> Result<Self, EstimatorError> {
+        data.validate()?;
+        if outputs.is_empty() {
+            return Err(EstimatorError::Config("at least one output is needed".into()));
+        }
+        if structure == Structure::Reduced && outputs.contains(&Signal::Il) {
+            return Err(EstimatorError::Config("the reduced model takes il as an input, not an output".into()));
+        }
+        if free.is_empty() {
+            return Err(EstimatorError::Config("at least one free parameter is needed".into()));
+        }
+        let column = |s: Signal| -> Result<&Vec<f64>, EstimatorError> {
+            let (col, name) = match (s, sampling) {
+                (Signal::Vout, Sampling::PeriodStart) => (Some(&data.vout), "vout"),
+                (Signal::Il, Sampling::PeriodStart) => (data.il.as_ref(), "il"),
+                (Signal::Vout, Sampling::PeriodAverage) => (data.vout_avg.as_ref(), "vout_avg"),
+                (Signal::Il, Sampling::PeriodAverage) => (data.il_avg.as_ref(), "il_avg"),
+            };
+            col.ok_or_else(|| EstimatorError::Data(format!("the data set has no `{name}` column")))
+        };
+        let cols: Vec<&Vec<f64>> = outputs.iter().map(|&s| column(s)).collect::<Result<_, _>>()?;
+        let n = data.len();
+        let y: Vec<f64> = (0..n).flat_map(|k| cols.iter().map(move |c| c[k])).collect();
+
+        let (levels, level_of) = match structure {
+            Structure::Pwm => {
+                let mut levels: Vec<f64> = Vec::new();
+                let mut level_of = Vec::with_capacity(n);
+                for &d in &data.duty {
+                    let j = match levels.iter().position(|&l| l == d) {
+                        Some(j) => j,
+                        None => {
+                            levels.push(d);
+                            levels.len() - 1
+                        }
+                    };
+                    level_of.push(j);
+                }
+                if levels.len() > MAX_PWM_LEVELS {
+                    return Err(EstimatorError::Config(format!(
+                        "the PWM model needs a duty with few distinct levels; this data has {} (max {MAX_PWM_LEVELS})",
+                        levels.len()
+                    )));
+                }
+                (levels, level_of)
+            }
+            _ => (vec![0.0], vec![0; n]),
+        };
+        let u: Vec<f64> = match structure {
+            Structure::Averaged => (0..n).flat_map(|k| [data.duty[k] * data.vin[k], data.io[k]]).collect(),
+            Structure::Pwm => (0..n).flat_map(|k| [data.vin[k], data.io[k]]).collect(),
+            Structure::Reduced => {
+                let il = data.il_avg.as_ref().or(data.il.as_ref()).ok_or_else(|| {
+                    EstimatorError::Data("the reduced model needs a measured `il` or `il_avg` column".into())
+                })?;
+                (0..n).flat_map(|k| [il[k], data.io[k]]).collect()
+            }
+        };
+        Ok(Self { structure, sampling, outputs: outputs.to_vec(), free: free.to_vec(), levels, level_of, u, y, period })
+    }
+
+    /// Number of states.
+    pub fn nx(&self) -> usize {
+        if self.structure == Structure::Reduced { 2 } else { 3 }
+    }
+
+    /// Number of inputs.
+    pub fn nu(&self) -> usize {
+        2
+    }
+
+    /// Number of outputs.
+    pub fn ny(&self) -> usize {
+        self.outputs.len()
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.level_of.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.level_of.is_empty()
+    }
+
+    /// State of the DC operating point for the first sample's inputs (a start guess).
+    pub fn dc_state(&self, p: &Params) -> Vec<f64> {
+        let (a, b) = self.lti(p, None);
+        let u = nalgebra::DVector::from_row_slice(&self.u[..2]);
+        let u = match self.structure {
+            Structure::Pwm => {
+                let d = self.levels[self.level_of[0]];
+                nalgebra::DVector::from_row_slice(&[d * u[0], u[1]])
+            }
+            _ => u,
+        };
+        let rhs = -(b * u);
+        a.lu().solve(&rhs).map_or_else(|| vec![0.0; self.nx()], |x| x.as_slice().to_vec())
+    }
+
+    fn lti(&self, p: &Params, slot: Option<usize>) -> (DMatrix<f64>, DMatrix<f64>) {
+        let (ta, tb) = if self.structure == Structure::Reduced { (REDUCED_A, REDUCED_B) } else { (FULL_A, FULL_B) };
+        let n = self.nx();
+        (build(ta, n, n, p, slot), build(tb, n, 2, p, slot))
+    }
+
+    /// Output selection `ny × n` on the state.
+    fn selection(&self) -> DMatrix<f64> {
+        let n = self.nx();
+        let mut c = DMatrix::zeros(self.ny(), n);
+        for (i, s) in self.outputs.iter().enumerate() {
+            let col = match (self.structure, s) {
+                (Structure::Reduced, _) => 1,
+                (_, Signal::Vout) => 2,
+                (_, Signal::Il) => 0,
+            };
+            c[(i, col)] = 1.0;
+        }
+        c
+    }
+
+    /// Maps of every level at circuit parameters `p`, with derivatives for the free ones when
+    /// `with_derivatives`.
+    pub fn levels(&self, p: &Params, with_derivatives: bool) -> Vec<Level> {
+        let (a, b) = self.lti(p, None);
+        let lti = Lti { a, b };
+        let derivs: Vec<Lti> = self
+            .free
+            .iter()
+            .filter(|_| with_derivatives)
+            .map(|f| {
+                let (a, b) = self.lti(p, Some(f.slot()));
+                Lti { a, b }
+            })
+            .collect();
+        let sel = self.selection();
+        let t = self.period;
+        // Discretizations of one piece and their derivatives.
+        let piece = |tau: f64| -> (Discrete, Vec<Discrete>) {
+            let mut base = None;
+            let ds = derivs
+                .iter()
+                .map(|d| {
+                    let (b, dd) = lti.discretize_with_derivative(d, tau);
+                    base.get_or_insert(b);
+                    dd
+                })
+                .collect();
+            (base.unwrap_or_else(|| lti.discretize(tau)), ds)
+        };
+        let out = |h_state: &DMatrix<f64>, d_state: &DMatrix<f64>| -> (DMatrix<f64>, DMatrix<f64>) {
+            match self.sampling {
+                Sampling::PeriodStart => (sel.clone(), DMatrix::zeros(self.ny(), 2)),
+                Sampling::PeriodAverage => (&sel * h_state, &sel * d_state),
+            }
+        };
+        let zero_out = || (DMatrix::zeros(self.ny(), self.nx()), DMatrix::zeros(self.ny(), 2));
+        match self.structure {
+            Structure::Averaged | Structure::Reduced => {
+                let (p0, dp) = piece(t);
+                let (h, d) = out(&(&p0.ia / t), &(&p0.ib / t));
+                let maps = Maps::from(&p0.ad, &p0.bd, &h, &d);
+                let derivs = dp
+                    .iter()
+                    .map(|q| {
+                        let (dh, dd) = match self.sampling {
+                            Sampling::PeriodStart => zero_out(),
+                            Sampling::PeriodAverage => out(&(&q.ia / t), &(&q.ib / t)),
+                        };
+                        Maps::from(&q.ad, &q.bd, &dh, &dd)
+                    })
+                    .collect();
+                vec![Level { maps, derivs }]
+            }
+            Structure::Pwm => {
+                // Off-time input is [0, io]: the switch node is grounded.
+                let s = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, 1.0]);
+                self.levels
+                    .iter()
+                    .map(|&duty| {
+                        let (p1, d1) = piece(duty * t);
+                        let (p2, d2) = piece((1.0 - duty) * t);
+                        let f = &p2.ad * &p1.ad;
+                        let g = &p2.ad * &p1.bd + &p2.bd * &s;
+                        let hs = (&p1.ia + &p2.ia * &p1.ad) / t;
+                        let ds = (&p1.ib + &p2.ia * &p1.bd + &p2.ib * &s) / t;
+                        let (h, d) = out(&hs, &ds);
+                        let maps = Maps::from(&f, &g, &h, &d);
+                        let derivs = d1
+                            .iter()
+                            .zip(&d2)
+                            .map(|(q1, q2)| {
+                                let df = &q2.ad * &p1.ad + &p2.ad * &q1.ad;
+                                let dg = &q2.ad * &p1.bd + &p2.ad * &q1.bd + &q2.bd * &s;
+                                let (dh, dd) = match self.sampling {
+                                    Sampling::PeriodStart => zero_out(),
+                                    Sampling::PeriodAverage => {
+                                        let dhs = (&q1.ia + &q2.ia * &p1.ad + &p2.ia * &q1.ad) / t;
+                                        let dds = (&q1.ib + &q2.ia * &p1.bd + &p2.ia * &q1.bd + &q2.ib * &s) / t;
+                                        out(&dhs, &dds)
+                                    }
+                                };
+                                Maps::from(&df, &dg, &dh, &dd)
+                            })
+                            .collect();
+                        Level { maps, derivs }
+                    })
+                    .collect()
+            }
+        }
+    }
+}

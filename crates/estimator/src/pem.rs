@@ -1,0 +1,490 @@
+//! Prediction-error identification: a one-step predictor in innovations form
+//!
+//! ```text
+//! x̂[k+1] = F_j·x̂[k] + G_j·u[k] + K·e[k],   e[k] = y[k] − H_j·x̂[k] − D_j·u[k]
+//! ```
+//!
+//! with the free circuit parameters (log scale), the initial state and, for the
+//! [`NoiseModel::Innovations`] predictor, the Kalman gain `K` as unknowns. The criterion is the
+//! weighted sum of squared prediction errors; Levenberg–Marquardt steps use the exact
+//! Jacobian from a forward sensitivity recursion, and the covariance is `s²·(JᵀJ)⁻¹`.
+//!
+//! With white measurement noise only (the usual open-loop case), the optimal predictor has
+//! `K = 0` and the criterion is the output-error one, which is then the maximum-likelihood fit.
+use buck_model::Params;
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::EstimatorError;
+use crate::model::{Free, Level, Model};
+
+/// Disturbance model of the predictor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseModel {
+    /// `K = 0`: white measurement noise (maximum likelihood for open-loop data with sensor
+    /// noise; simulation and one-step prediction coincide).
+    OutputError,
+    /// `K` estimated (innovations form): process and measurement noise, closed-loop data.
+    Innovations,
+}
+
+/// Settings of a fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Disturbance model.
+    pub noise: NoiseModel,
+    /// Start values of the free parameters (`None`: nominal, and a grid over 0.1–200 µF for Cl).
+    pub guess: Option<Vec<f64>>,
+    /// Iteration limit of Levenberg–Marquardt.
+    pub max_iterations: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self { noise: NoiseModel::OutputError, guess: None, max_iterations: 100 }
+    }
+}
+
+/// An estimated parameter with its 95 % confidence interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Name (as in the variable table).
+    pub name: &'static str,
+    /// Point estimate.
+    pub value: f64,
+    /// Lower and upper 95 % bounds (from the log-scale normal approximation).
+    pub ci95: (f64, f64),
+    /// Standard deviation of `ln(value)` (≈ relative standard deviation).
+    pub rel_std: f64,
+}
+
+/// Result of a fit.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Circuit parameters with the estimates in place.
+    pub params: Params,
+    /// Free parameters, in the model's order.
+    pub estimates: Vec<Estimate>,
+    /// Estimated initial state.
+    pub x0: Vec<f64>,
+    /// Estimated predictor gain (`nx × ny`, row-major); zeros for output error.
+    pub gain: Vec<f64>,
+    /// Residual standard deviation of each output.
+    pub sigma: Vec<f64>,
+    /// Final weighted criterion `Σ (e/σ)²`.
+    pub cost: f64,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// Whether the relative change of the criterion fell below tolerance.
+    pub converged: bool,
+    /// Number of estimated values (free parameters, initial state, gain).
+    pub n_params: usize,
+    /// Covariance of the free parameters on log scale.
+    pub covariance: DMatrix<f64>,
+}
+
+impl Fit {
+    /// The estimate of a free parameter by name.
+    pub fn estimate(&self, name: &str) -> Option<&Estimate> {
+        self.estimates.iter().find(|e| e.name == name)
+    }
+
+    /// Akaike's information criterion of the fit, `N·ny·ln(det Σ) + 2·n_params` with the
+    /// residual covariance taken diagonal.
+    pub fn aic(&self, samples: usize) -> f64 {
+        let ln_det: f64 = self.sigma.iter().map(|s| 2.0 * s.max(1e-300).ln()).sum();
+        samples as f64 * ln_det + 2.0 * self.n_params as f64
+    }
+}
+
+/// Layout of the unknown vector `[ln θ (nf) | x0 (nx) | K (nx·ny)]`.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    nf: usize,
+    nx: usize,
+    ny: usize,
+    gain: bool,
+}
+
+impl Layout {
+    fn np(&self) -> usize {
+        self.nf + self.nx + if self.gain { self.nx * self.ny } else { 0 }
+    }
+}
+
+/// Criterion value and, on request, normal equations.
+struct Eval {
+    cost: f64,
+    sum_sq: Vec<f64>,
+    jtj: DMatrix<f64>,
+    jtr: DVector<f64>,
+}
+
+/// Runs the predictor over the data: criterion, per-output residual sums of squares and,
+/// when `jacobian`, `JᵀJ` and `Jᵀr` of the weighted residuals. `sensitivities = false` skips
+/// the derivative columns of the circuit parameters (their maps may then be absent).
+fn evaluate(
+    model: &Model,
+    levels: &[Level],
+    lay: Layout,
+    p: &[f64],
+    weights: &[f64],
+    jacobian: bool,
+    sensitivities: bool,
+    mut record: Option<&mut Vec<f64>>,
+) -> Eval {
+    let (nf, nx, ny, nu) = (lay.nf, lay.nx, lay.ny, model.nu());
+    let np = lay.np();
+    let mut x: Vec<f64> = p[nf..nf + nx].to_vec();
+    let k_gain: Vec<f64> = if lay.gain { p[nf + nx..].to_vec() } else { vec![0.0; nx * ny] };
+    let mut s = vec![0.0; nx * np];
+    for i in 0..nx {
+        s[i * np + nf + i] = 1.0;
+    }
+    let mut e = vec![0.0; ny];
+    let mut de = vec![0.0; ny * np];
+    let mut xn = vec![0.0; nx];
+    let mut sn = vec![0.0; nx * np];
+    let mut out = Eval { cost: 0.0, sum_sq: vec![0.0; ny], jtj: DMatrix::zeros(np, np), jtr: DVector::zeros(np) };
+    for k in 0..model.len() {
+        let lev = &levels[model.level_of[k]];
+        let m = &lev.maps;
+        let u = &model.u[k * nu..(k + 1) * nu];
+        let y = &model.y[k * ny..(k + 1) * ny];
+        for o in 0..ny {
+            let mut yh = 0.0;
+            for i in 0..nx {
+                yh += m.h[o * nx + i] * x[i];
+            }
+            for j in 0..nu {
+                yh += m.d[o * nu + j] * u[j];
+            }
+            e[o] = y[o] - yh;
+            out.sum_sq[o] += e[o] * e[o];
+            out.cost += (weights[o] * e[o]).powi(2);
+        }
+        if let Some(rec) = record.as_deref_mut() {
+            rec.extend(y.iter().zip(&e).map(|(y, e)| y - e));
+        }
+        if jacobian {
+            for o in 0..ny {
+                for c in 0..np {
+                    let mut v = 0.0;
+                    for i in 0..nx {
+                        v -= m.h[o * nx + i] * s[i * np + c];
+                    }
+                    de[o * np + c] = v;
+                }
+                if sensitivities {
+                    for (f, dm) in lev.derivs.iter().enumerate().take(nf) {
+                        let mut v = 0.0;
+                        for i in 0..nx {
+                            v += dm.h[o * nx + i] * x[i];
+                        }
+                        for j in 0..nu {
+                            v += dm.d[o * nu + j] * u[j];
+                        }
+                        de[o * np + f] -= v;
+                    }
+                }
+                let w = weights[o];
+                let row = &de[o * np..(o + 1) * np];
+                for a in 0..np {
+                    out.jtr[a] += w * row[a] * w * e[o];
+                    for b in a..np {
+                        out.jtj[(a, b)] += w * w * row[a] * row[b];
+                    }
+                }
+            }
+        }
+        // State update.
+        for i in 0..nx {
+            let mut v = 0.0;
+            for j in 0..nx {
+                v += m.f[i * nx + j] * x[j];
+            }
+            for j in 0..nu {
+                v += m.g[i * nu + j] * u[j];
+            }
+            for o in 0..ny {
+                v += k_gain[i * ny + o] * e[o];
+            }
+            xn[i] = v;
+        }
+        if jacobian {
+            for i in 0..nx {
+                for c in 0..np {
+                    let mut v = 0.0;
+                    for j in 0..nx {
+                        v += m.f[i * nx + j] * s[j * np + c];
+                    }
+                    for o in 0..ny {
+                        v += k_gain[i * ny + o] * de[o * np + c];
+                    }
+                    sn[i * np + c] = v;
+                }
+                if sensitivities {
+                    for (f, dm) in lev.derivs.iter().enumerate().take(nf) {
+                        let mut v = 0.0;
+                        for j in 0..nx {
+                            v += dm.f[i * nx + j] * x[j];
+                        }
+                        for j in 0..nu {
+                            v += dm.g[i * nu + j] * u[j];
+                        }
+                        sn[i * np + f] += v;
+                    }
+                }
+                if lay.gain {
+                    for o in 0..ny {
+                        sn[i * np + nf + nx + i * ny + o] += e[o];
+                    }
+                }
+            }
+            std::mem::swap(&mut s, &mut sn);
+        }
+        std::mem::swap(&mut x, &mut xn);
+        if !out.cost.is_finite() {
+            out.cost = f64::INFINITY;
+            return out;
+        }
+    }
+    for a in 0..np {
+        for b in 0..a {
+            out.jtj[(a, b)] = out.jtj[(b, a)];
+        }
+    }
+    out
+}
+
+/// Circuit parameters with the free ones set from log values.
+fn with_free(nominal: &Params, free: &[Free], logs: &[f64]) -> Params {
+    let mut p = *nominal;
+    for (f, l) in free.iter().zip(logs) {
+        f.set(&mut p, l.exp());
+    }
+    p
+}
+
+/// Grid of start values for Cl [F], log-spaced over 0.1–200 µF (a half decade apart).
+const CL_GRID: [f64; 8] = [0.1e-6, 0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6, 300e-6];
+
+/// Fits the free parameters of `model` to its data, starting from the circuit values `nominal`.
+///
+/// ```
+/// use buck_model::{Mode, Params};
+/// use estimator::experiment::{run, Experiment, ModelPlant};
+/// use estimator::model::{Free, Model, Sampling, Signal, Structure};
+/// use estimator::pem::{fit, FitOptions};
+///
+/// let truth = Params { cl: 4.7e-6, ..Params::default() };
+/// let exp = Experiment { samples: 1000, noise_vout: 2e-3, ..Experiment::default() };
+/// let data = run(&mut ModelPlant::new(truth, Mode::Averaged), &exp).unwrap();
+/// let model = Model::new(Structure::Averaged, Sampling::PeriodStart, &[Signal::Vout], &[Free::Cl], &data, truth.period()).unwrap();
+/// let f = fit(&model, &Params::default(), &FitOptions::default()).unwrap();
+/// let cl = f.estimate("Cl").unwrap();
+/// assert!(cl.ci95.0 < 4.7e-6 && 4.7e-6 < cl.ci95.1);
+/// ```
+pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, EstimatorError> {
+    let nf = model.free.len();
+    let lay = Layout { nf, nx: model.nx(), ny: model.ny(), gain: opts.noise == NoiseModel::Innovations };
+    let np = lay.np();
+    let n_obs = model.len() * model.ny();
+    if n_obs <= np {
+        return Err(EstimatorError::Fit(format!("{n_obs} observations cannot determine {np} unknowns")));
+    }
+    // Start: nominal values (or the guess), DC state, zero gain.
+    let mut logs: Vec<f64> = match &opts.guess {
+        Some(g) if g.len() == nf => g.iter().map(|v| v.ln()).collect(),
+        Some(g) => return Err(EstimatorError::Config(format!("{} start values for {nf} free parameters", g.len()))),
+        None => model.free.iter().map(|f| f.get(nominal).ln()).collect(),
+    };
+    if logs.iter().any(|l| !l.is_finite()) {
+        return Err(EstimatorError::Config("start values of free parameters must be positive".into()));
+    }
+    // Output weights: 1/spread of each measured output, refined from residuals below.
+    let mut weights: Vec<f64> = (0..lay.ny)
+        .map(|o| {
+            let col: Vec<f64> = model.y.iter().skip(o).step_by(lay.ny).copied().collect();
+            let mean = col.iter().sum::<f64>() / col.len() as f64;
+            let var = col.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / col.len() as f64;
+            1.0 / var.sqrt().max(1e-12)
+        })
+        .collect();
+
+    let cl_index = model.free.iter().position(|f| *f == Free::Cl);
+    let mut p = vec![0.0; np];
+    p[..nf].copy_from_slice(&logs);
+    p[nf..nf + lay.nx].copy_from_slice(&model.dc_state(&with_free(nominal, &model.free, &logs)));
+    if let (Some(ci), None) = (cl_index, &opts.guess) {
+        // Coarse grid over Cl from the DC state: a wrong initial state only spoils the first
+        // few dozen samples (the LC mode decays within ~10 periods), not the ranking.
+        let mut best = (f64::INFINITY, logs[ci]);
+        for cl in CL_GRID {
+            logs[ci] = cl.ln();
+            let levels = model.levels(&with_free(nominal, &model.free, &logs), false);
+            p[..nf].copy_from_slice(&logs);
+            let cost = evaluate(model, &levels, lay, &p, &weights, false, false, None).cost;
+            if cost < best.0 {
+                best = (cost, logs[ci]);
+            }
+        }
+        logs[ci] = best.1;
+        p[..nf].copy_from_slice(&logs);
+    }
+    // The prediction is affine in x0 (output error), so one Gauss–Newton step solves it.
+    let levels = model.levels(&with_free(nominal, &model.free, &logs), false);
+    if let Some(q) = solve_initial_state(model, &levels, lay, p.clone(), &weights) {
+        p = q;
+    }
+
+    let mut total_iterations = 0;
+    let mut converged = false;
+    // Two passes when there are several outputs: the second with weights 1/σ from the first.
+    let passes = if lay.ny > 1 { 3 } else { 1 };
+    let mut last = None;
+    for _ in 0..passes {
+        let (q, it, conv, eval) = levenberg_marquardt(model, nominal, lay, p, &weights, opts.max_iterations)?;
+        p = q;
+        total_iterations += it;
+        converged = conv;
+        let sig: Vec<f64> = eval.sum_sq.iter().map(|s| (s / model.len() as f64).sqrt()).collect();
+        weights = sig.iter().map(|s| 1.0 / s.max(1e-15)).collect();
+        last = Some(sig);
+    }
+    let sigma = last.unwrap_or_default();
+    let params = with_free(nominal, &model.free, &p[..nf]);
+    let levels = model.levels(&params, true);
+    let eval = evaluate(model, &levels, lay, &p, &weights, true, true, None);
+    let s2 = eval.cost / (n_obs - np) as f64;
+    let cov_all = eval
+        .jtj
+        .clone()
+        .cholesky()
+        .map(|c| c.inverse() * s2)
+        .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))?;
+    let covariance = cov_all.view((0, 0), (nf, nf)).into_owned();
+    let estimates = model
+        .free
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let sd = covariance[(i, i)].max(0.0).sqrt();
+            Estimate {
+                name: f.name(),
+                value: p[i].exp(),
+                ci95: ((p[i] - 1.959_964 * sd).exp(), (p[i] + 1.959_964 * sd).exp()),
+                rel_std: sd,
+            }
+        })
+        .collect();
+    Ok(Fit {
+        params,
+        estimates,
+        x0: p[nf..nf + lay.nx].to_vec(),
+        gain: if lay.gain { p[nf + lay.nx..].to_vec() } else { vec![0.0; lay.nx * lay.ny] },
+        sigma,
+        cost: eval.cost,
+        iterations: total_iterations,
+        converged,
+        n_params: np,
+        covariance,
+    })
+}
+
+/// One Gauss–Newton step in the initial state only (exact for output error, where the
+/// prediction is affine in `x0`).
+fn solve_initial_state(model: &Model, levels: &[Level], lay: Layout, mut p: Vec<f64>, w: &[f64]) -> Option<Vec<f64>> {
+    let eval = evaluate(model, levels, lay, &p, w, true, false, None);
+    let (nf, nx) = (lay.nf, lay.nx);
+    let a = eval.jtj.view((nf, nf), (nx, nx)).into_owned();
+    let b = eval.jtr.rows(nf, nx).into_owned();
+    let step = a.cholesky()?.solve(&(-b));
+    for i in 0..nx {
+        p[nf + i] += step[i];
+    }
+    Some(p)
+}
+
+/// Levenberg–Marquardt with Marquardt's diagonal scaling. Trial points are evaluated without
+/// the Jacobian; it is computed only where a step is accepted. Stops when the Gauss–Newton
+/// step of every unknown is below 1e-4 of its own standard deviation (further iterations
+/// could not move the estimate by anything the data can resolve) or the criterion stalls.
+fn levenberg_marquardt(
+    model: &Model,
+    nominal: &Params,
+    lay: Layout,
+    mut p: Vec<f64>,
+    weights: &[f64],
+    max_iterations: usize,
+) -> Result<(Vec<f64>, usize, bool, Eval), EstimatorError> {
+    let np = lay.np();
+    let eval_at = |p: &[f64], jacobian: bool| {
+        let levels = model.levels(&with_free(nominal, &model.free, &p[..lay.nf]), jacobian);
+        evaluate(model, &levels, lay, p, weights, jacobian, jacobian, None)
+    };
+    let mut cur = eval_at(&p, true);
+    if !cur.cost.is_finite() {
+        return Err(EstimatorError::Fit("the predictor diverges at the start values".into()));
+    }
+    let dof = ((model.len() * lay.ny) as f64 - np as f64).max(1.0);
+    let mut lambda = 1e-4;
+    let mut it = 0;
+    while it < max_iterations {
+        it += 1;
+        let mut a = cur.jtj.clone();
+        for i in 0..np {
+            a[(i, i)] += lambda * cur.jtj[(i, i)].max(1e-12);
+        }
+        let Some(chol) = a.cholesky() else {
+            lambda *= 10.0;
+            continue;
+        };
+        let step = chol.solve(&(-&cur.jtr));
+        // Converged when no unknown moves by more than 1e-4 of its standard deviation.
+        let s2 = cur.cost / dof;
+        let resolved = (0..np).all(|i| step[i].abs() <= 1e-4 * (s2 / cur.jtj[(i, i)].max(1e-300)).sqrt().max(0.0) * 1e2
+            || step[i] == 0.0);
+        let tiny = (0..np).all(|i| step[i].powi(2) * cur.jtj[(i, i)] <= 1e-8 * s2.max(1e-300));
+        if tiny || (resolved && lambda < 1e-2) {
+            return Ok((p, it, true, cur));
+        }
+        // Keep log-parameter steps sane (a factor e per iteration at most).
+        let scale = (1.0 / step.rows(0, lay.nf).amax().max(1e-300)).min(1.0);
+        let trial: Vec<f64> = p.iter().zip(step.iter()).map(|(x, s)| x + scale * s).collect();
+        let trial_cost = eval_at(&trial, false).cost;
+        if trial_cost < cur.cost {
+            let rel = (cur.cost - trial_cost) / cur.cost.max(1e-300);
+            p = trial;
+            cur = eval_at(&p, true);
+            lambda = (lambda / 10.0).max(1e-12);
+            if rel < 1e-12 {
+                return Ok((p, it, true, cur));
+            }
+        } else {
+            lambda *= 10.0;
+            if lambda > 1e12 {
+                // No descent direction left: a minimum to working precision.
+                return Ok((p, it, true, cur));
+            }
+        }
+    }
+    Ok((p, it, false, cur))
+}
+
+/// Simulated (`K = 0`) or one-step-predicted outputs of a fit over `model`'s data, `ny`
+/// values per sample; `x0` and `gain` as in [`Fit`].
+pub fn outputs(model: &Model, params: &Params, x0: &[f64], gain: Option<&[f64]>) -> Vec<f64> {
+    let lay = Layout { nf: model.free.len(), nx: model.nx(), ny: model.ny(), gain: gain.is_some() };
+    let levels = model.levels(params, false);
+    let mut p = vec![0.0; lay.np()];
+    for (i, f) in model.free.iter().enumerate() {
+        p[i] = f.get(params).ln();
+    }
+    p[lay.nf..lay.nf + lay.nx].copy_from_slice(x0);
+    if let Some(g) = gain {
+        p[lay.nf + lay.nx..].copy_from_slice(g);
+    }
+    let mut rec = Vec::with_capacity(model.y.len());
+    evaluate(model, &levels, lay, &p, &vec![1.0; lay.ny], false, false, Some(&mut rec));
+    rec
+}

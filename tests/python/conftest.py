@@ -1,0 +1,106 @@
+"""Session fixtures for the cross-tool tests of the BuckConverter FMU.
+
+The FMU and the `trajectory` example are (re)built with cargo once per session, so the tests
+always exercise the current sources; both builds are incremental (about a second when nothing
+changed). Nothing here hard-codes the Python environment: tools are found next to
+`sys.executable`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _cargo() -> str:
+    cargo = os.environ.get("CARGO") or shutil.which("cargo")
+    if cargo is None:
+        pytest.fail("cargo is not on PATH: it is needed to build the FMU under test")
+    return cargo
+
+
+def venv_tool(name: str) -> str | None:
+    """A console script installed next to the running interpreter (the venv's bin dir), else PATH."""
+    candidate = Path(sys.executable).parent / name
+    if candidate.is_file() and os.access(candidate, os.X_OK):
+        return str(candidate)
+    return shutil.which(name)
+
+
+@pytest.fixture(scope="session")
+def fmutool() -> str:
+    """fmu-manipulation-toolbox's `fmutool` command."""
+    tool = venv_tool("fmutool")
+    if tool is None:
+        pytest.fail("fmutool (fmu-manipulation-toolbox) is not installed next to the interpreter nor on PATH")
+    return tool
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> Path:
+    return REPO
+
+
+@pytest.fixture(scope="session")
+def fmu_path() -> Path:
+    """`cargo xtask fmu`: builds the release cdylib and packages it; prints the FMU's path."""
+    proc = subprocess.run(
+        [_cargo(), "xtask", "fmu"], cwd=REPO, capture_output=True, text=True, check=False
+    )
+    if proc.returncode != 0:
+        pytest.fail(f"cargo xtask fmu failed ({proc.returncode}):\n{proc.stderr[-4000:]}")
+    lines = [line for line in proc.stdout.splitlines() if line.strip()]
+    path = Path(lines[-1].strip()) if lines else REPO / "fmu" / "BuckConverter.fmu"
+    assert path.is_file(), f"cargo xtask fmu did not produce {path}"
+    return path
+
+
+@pytest.fixture(scope="session")
+def trajectory_bin() -> Path:
+    """The `trajectory` example of buck-model (the Rust model in-process, same code as the FMU).
+
+    Always goes through `cargo build` (a no-op when up to date) so that a stale binary from an
+    older checkout never gets compared with a freshly built FMU; the executable's path comes from
+    cargo's JSON messages, so a custom `CARGO_TARGET_DIR` works too.
+    """
+    proc = subprocess.run(
+        [
+            _cargo(), "build", "--release", "-p", "buck-model", "--example", "trajectory",
+            "--message-format=json",
+        ],
+        cwd=REPO, capture_output=True, text=True, check=False,
+    )
+    if proc.returncode != 0:
+        pytest.fail(f"building the trajectory example failed:\n{proc.stderr[-4000:]}")
+    for line in proc.stdout.splitlines():
+        try:
+            msg = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if msg.get("reason") == "compiler-artifact" and msg.get("target", {}).get("name") == "trajectory":
+            if msg.get("executable"):
+                return Path(msg["executable"])
+    pytest.fail("cargo did not report the trajectory executable")
+
+
+@pytest.fixture(scope="session")
+def fmu_dir(fmu_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The FMU extracted once; every fmpy FMU2Slave of the session loads its binary from here."""
+    from fmpy import extract
+
+    return Path(extract(str(fmu_path), unzipdir=str(tmp_path_factory.mktemp("BuckConverter"))))
+
+
+@pytest.fixture(scope="session")
+def model_description(fmu_path: Path):
+    from fmpy import read_model_description
+
+    return read_model_description(str(fmu_path))
