@@ -10,7 +10,9 @@
 pub mod data;
 mod error;
 pub mod experiment;
+pub mod identify;
 pub mod model;
 pub mod pem;
+pub mod validate;
 
 pub use error::EstimatorError;
