@@ -10,6 +10,7 @@
 pub mod data;
 mod error;
 pub mod experiment;
+pub mod fmu_plant;
 pub mod identify;
 pub mod model;
 pub mod pem;

@@ -158,7 +158,7 @@ impl Instance {
         self.call(F, |_, c| unsafe { set(c, boolean(on), ptrs.len(), ptrs.as_ptr()) })
     }
 
-    /// `fmi2SetupExperiment` with start time [s] and optional stop time [s]; no tolerance.
+    /// `fmi2SetupExperiment` with start time \[s\] and optional stop time \[s\]; no tolerance.
     pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Result<(), ImportError> {
         let (defined, stop) = stop.map_or((false, 0.0), |s| (true, s));
         // SAFETY: a live component and plain values.
@@ -245,7 +245,7 @@ impl Instance {
         Ok(())
     }
 
-    /// `fmi2DoStep` from communication point `t` [s] over `h` [s].
+    /// `fmi2DoStep` from communication point `t` \[s\] over `h` \[s\].
     ///
     /// `noSetFMUStatePriorToCurrentPoint` is true unless a snapshot from
     /// [`Instance::get_state`] is held, so the FMU may drop history it will not need.

@@ -280,6 +280,7 @@ impl fmt::Display for Status {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use fmi2_sys::fmi2Status;

@@ -159,6 +159,7 @@ pub(crate) fn libpython() -> Result<PathBuf, ImportError> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -1,0 +1,180 @@
+//! Any FMI 2.0 Co-Simulation FMU as a [`Plant`], with the estimator's signal roles mapped
+//! onto the FMU's variable names.
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use fmi2_import::{Fmu, ImportError, Instance, VarKind};
+use fmi2_schema::VariableType;
+
+use crate::error::EstimatorError;
+use crate::experiment::{PeriodSample, Plant};
+
+/// Signal roles of the estimator; each maps to an FMU variable (by default of the same name).
+pub const ROLES: [&str; 7] = ["duty", "io", "vin", "vout", "il", "vout_avg", "il_avg"];
+/// Roles the FMU must have.
+const REQUIRED: [&str; 2] = ["duty", "vout"];
+/// Known circuit values read from the FMU's parameters for the metadata (never `Cl`).
+const DESCRIBED: [&str; 5] = ["L", "RL", "C", "Rc", "fs"];
+
+/// How to drive an FMU.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FmuOptions {
+    /// Role → FMU variable name, for FMUs that name things their own way.
+    pub map: BTreeMap<String, String>,
+    /// Start values to set before initialization, by FMU variable name.
+    pub set: Vec<(String, f64)>,
+    /// Switching frequency [Hz] when the FMU has no `fs` parameter (default 330 kHz).
+    pub fs: Option<f64>,
+}
+
+fn plant_err(e: ImportError) -> EstimatorError {
+    EstimatorError::Plant(e.to_string())
+}
+
+/// An FMU driven one switching period per `fmi2DoStep`.
+pub struct FmuPlant {
+    // Declared before `fmu`: the instance is freed before the extracted FMU is deleted.
+    instance: Instance,
+    fmu: Fmu,
+    /// Value reference of each role the FMU has.
+    roles: BTreeMap<&'static str, u32>,
+    settings: Vec<(u32, VarKind, f64, String)>,
+    fs: f64,
+    periods: u64,
+    source: String,
+}
+
+impl std::fmt::Debug for FmuPlant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FmuPlant").field("source", &self.source).field("fs", &self.fs).finish_non_exhaustive()
+    }
+}
+
+impl FmuPlant {
+    /// Opens and instantiates the FMU at `path`. Errors name unknown variables (listing the
+    /// FMU's own) and malformed FMUs.
+    pub fn open(path: &Path, opts: &FmuOptions) -> Result<Self, EstimatorError> {
+        let fmu = Fmu::open(path).map_err(plant_err)?;
+        for role in opts.map.keys() {
+            if !ROLES.contains(&role.as_str()) {
+                return Err(EstimatorError::Config(format!("unknown role `{role}` in --map; roles are {}", ROLES.join(", "))));
+            }
+        }
+        let mut roles = BTreeMap::new();
+        for role in ROLES {
+            let mapped = opts.map.get(role);
+            let name = mapped.map_or(role, String::as_str);
+            match fmu.value_reference(name) {
+                Ok((vr, VarKind::Real)) => {
+                    roles.insert(role, vr);
+                }
+                Ok((_, kind)) => {
+                    return Err(EstimatorError::Config(format!("FMU variable `{name}` (role {role}) is {kind:?}, not Real")));
+                }
+                // A role named explicitly, or a required one, must exist.
+                Err(e) if mapped.is_some() || REQUIRED.contains(&role) => {
+                    return Err(EstimatorError::Plant(format!("role `{role}`: {e} (use --map {role}=NAME)")));
+                }
+                Err(_) => {}
+            }
+        }
+        let mut settings = Vec::new();
+        for (name, value) in &opts.set {
+            let (vr, kind) = fmu.value_reference(name).map_err(plant_err)?;
+            settings.push((vr, kind, *value, name.clone()));
+        }
+        let fs = match opts.set.iter().find(|(n, _)| n == "fs") {
+            Some((_, v)) => *v,
+            None => real_start(&fmu, "fs").or(opts.fs).unwrap_or(330e3),
+        };
+        if !(fs > 0.0 && fs.is_finite()) {
+            return Err(EstimatorError::Config(format!("switching frequency {fs} Hz must be positive")));
+        }
+        let instance = fmu.instantiate("buckid").map_err(plant_err)?;
+        let source = format!("{} ({})", path.display(), fmu.model_description().model_name);
+        Ok(Self { instance, fmu, roles, settings, fs, periods: 0, source })
+    }
+
+    fn vr(&self, role: &str) -> Option<u32> {
+        self.roles.get(role).copied()
+    }
+
+    fn set(&mut self, role: &str, value: f64) -> Result<(), EstimatorError> {
+        match self.vr(role) {
+            Some(vr) => self.instance.set_real(&[vr], &[value]).map_err(plant_err),
+            None => Ok(()),
+        }
+    }
+
+    fn get(&mut self, role: &str) -> Result<Option<f64>, EstimatorError> {
+        let Some(vr) = self.vr(role) else { return Ok(None) };
+        let mut v = [0.0];
+        self.instance.get_real(&[vr], &mut v).map_err(plant_err)?;
+        Ok(Some(v[0]))
+    }
+}
+
+/// Start value of a Real variable in the modelDescription.
+fn real_start(fmu: &Fmu, name: &str) -> Option<f64> {
+    match &fmu.variable(name)?.ty {
+        VariableType::Real(r) => r.start,
+        _ => None,
+    }
+}
+
+impl Plant for FmuPlant {
+    fn switching_frequency(&self) -> f64 {
+        self.fs
+    }
+
+    fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError> {
+        // A fresh run every time: reset is cheap and makes repeated experiments independent.
+        self.instance.reset().map_err(plant_err)?;
+        self.instance.setup_experiment(0.0, None).map_err(plant_err)?;
+        for (vr, kind, value, name) in self.settings.clone() {
+            let result = match kind {
+                VarKind::Real => self.instance.set_real(&[vr], &[value]),
+                VarKind::Integer | VarKind::Enumeration => self.instance.set_integer(&[vr], &[value as i32]),
+                VarKind::Boolean => self.instance.set_boolean(&[vr], &[value != 0.0]),
+                _ => return Err(EstimatorError::Config(format!("--set {name}: string variables are not supported"))),
+            };
+            result.map_err(|e| EstimatorError::Plant(format!("--set {name}={value}: {e}")))?;
+        }
+        self.set("duty", duty)?;
+        self.set("io", io)?;
+        self.set("vin", vin)?;
+        self.instance.enter_initialization_mode().map_err(plant_err)?;
+        self.instance.exit_initialization_mode().map_err(plant_err)?;
+        self.periods = 0;
+        Ok(())
+    }
+
+    fn sample(&mut self) -> Result<PeriodSample, EstimatorError> {
+        let vout = self.get("vout")?.unwrap_or(f64::NAN);
+        let il = self.get("il")?.unwrap_or(f64::NAN);
+        let average = match (self.get("vout_avg")?, self.get("il_avg")?) {
+            (Some(v), Some(i)) => Some((v, i)),
+            _ => None,
+        };
+        Ok(PeriodSample { vout, il, average })
+    }
+
+    fn step_period(&mut self, duty: f64) -> Result<(), EstimatorError> {
+        self.set("duty", duty)?;
+        let t = self.periods as f64 / self.fs;
+        self.instance.do_step(t, 1.0 / self.fs).map_err(plant_err)?;
+        self.periods += 1;
+        Ok(())
+    }
+
+    fn describe(&self) -> Vec<(String, String)> {
+        let mut meta = vec![("source".to_string(), self.source.clone())];
+        for name in DESCRIBED {
+            let set = self.settings.iter().find(|s| s.3 == name).map(|s| s.2);
+            if let Some(v) = set.or_else(|| real_start(&self.fmu, name)) {
+                meta.push((name.to_string(), format!("{v}")));
+            }
+        }
+        meta
+    }
+}
