@@ -23,6 +23,9 @@ pub struct FmuOptions {
     pub map: BTreeMap<String, String>,
     /// Start values to set before initialization, by FMU variable name.
     pub set: Vec<(String, f64)>,
+    /// Start values applied only when the FMU has a variable of that name and `set` does not
+    /// name it (e.g. `mode = 2` selects switched mode in our FMU, ignored by others).
+    pub defaults: Vec<(String, f64)>,
     /// Switching frequency [Hz] when the FMU has no `fs` parameter (default 330 kHz).
     pub fs: Option<f64>,
 }
@@ -79,7 +82,11 @@ impl FmuPlant {
             }
         }
         let mut settings = Vec::new();
-        for (name, value) in &opts.set {
+        let defaults = opts
+            .defaults
+            .iter()
+            .filter(|(n, _)| fmu.variable(n).is_some() && !opts.set.iter().any(|(s, _)| s == n));
+        for (name, value) in opts.set.iter().chain(defaults) {
             let (vr, kind) = fmu.value_reference(name).map_err(plant_err)?;
             settings.push((vr, kind, *value, name.clone()));
         }

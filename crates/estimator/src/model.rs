@@ -445,3 +445,32 @@ impl Model {
         }
     }
 }
+
+/// Frequency response duty → vout of the averaged continuous model at `vin` volts:
+/// `G(j2πf) = c·(j2πf·I − A)⁻¹·b·vin` for each frequency [Hz].
+pub fn frequency_response(p: &Params, vin: f64, freqs: &[f64]) -> Vec<nalgebra::Complex<f64>> {
+    use nalgebra::Complex;
+    let a = build(FULL_A, 3, 3, p, None).map(|x| Complex::new(x, 0.0));
+    let b = build(FULL_B, 3, 2, p, None).column(0).map(|x| Complex::new(x * vin, 0.0));
+    freqs
+        .iter()
+        .map(|f| {
+            let s = Complex::new(0.0, 2.0 * std::f64::consts::PI * f);
+            let m = DMatrix::<Complex<f64>>::identity(3, 3) * s - &a;
+            m.lu().solve(&b).map_or(Complex::new(f64::NAN, 0.0), |x| x[2])
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At low frequency the averaged gain duty → vout is vin (the DC gain of the buck).
+    #[test]
+    fn frequency_response_has_the_buck_dc_gain() {
+        let g = frequency_response(&Params::default(), 12.0, &[1.0, 1e6]);
+        assert!((g[0].norm() - 12.0).abs() < 0.01, "{}", g[0]);
+        assert!(g[1].norm() < 0.2, "an LC filter attenuates at 1 MHz: {}", g[1]);
+    }
+}

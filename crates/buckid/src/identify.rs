@@ -1,0 +1,287 @@
+//! `buckid identify`: run or read the data, fit, validate, report.
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::experiment::{Experiment, Prbs, run as run_experiment};
+use estimator::fmu_plant::{FmuOptions, FmuPlant};
+use estimator::identify::{Identification, IdentifyOptions, identify};
+use estimator::model::{Free, Sampling, Signal, Structure};
+use estimator::pem::NoiseModel;
+use serde::Serialize;
+
+use crate::{IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
+
+/// Splits `NAME=VALUE`.
+fn pair(s: &str, flag: &str) -> Result<(String, String)> {
+    let (k, v) = s.split_once('=').with_context(|| format!("{flag} {s:?}: expected NAME=VALUE"))?;
+    Ok((k.trim().to_string(), v.trim().to_string()))
+}
+
+/// Known circuit values from the data's metadata; thesis values (with a note) where absent.
+pub fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
+    let mut p = Params::default();
+    let mut assumed = Vec::new();
+    let fields: [(&str, fn(&mut Params) -> &mut f64); 5] = [
+        ("L", |p| &mut p.l),
+        ("RL", |p| &mut p.rl),
+        ("C", |p| &mut p.c),
+        ("Rc", |p| &mut p.rc),
+        ("fs", |p| &mut p.fs),
+    ];
+    for (key, field) in fields {
+        match data.meta_f64(key)? {
+            Some(v) if v.is_finite() && v > 0.0 || (key == "RL" && v == 0.0) => *field(&mut p) = v,
+            Some(v) => bail!("metadata `{key} = {v}` is not a valid circuit value"),
+            None if key == "fs" => {
+                p.fs = 1.0 / data.sample_period();
+                assumed.push(format!("fs = {:.6e} Hz from the sample spacing", p.fs));
+            }
+            None => assumed.push(format!("{key} = {:e} (thesis value; give `# {key} = …` to override)", *field(&mut p))),
+        }
+    }
+    Ok((p, assumed))
+}
+
+/// Records a data set from the FMU: `samples` for estimation plus half as many for validation.
+fn record_from_fmu(args: &IdentifyArgs, path: &std::path::Path) -> Result<(DataSet, f64, f64)> {
+    let map: BTreeMap<String, String> = args.map.iter().map(|m| pair(m, "--map")).collect::<Result<_>>()?;
+    let set = args
+        .set
+        .iter()
+        .map(|s| {
+            let (k, v) = pair(s, "--set")?;
+            let value = v.parse::<f64>().with_context(|| format!("--set {k}={v}: the value is not a number"))?;
+            Ok((k, value))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let opts = FmuOptions { map, set, defaults: vec![("mode".into(), 2.0)], fs: None };
+    eprintln!("loading {}", path.display());
+    let mut plant = FmuPlant::open(path, &opts)?;
+    let validation = args.samples / 2;
+    let exp = Experiment {
+        samples: args.samples + validation,
+        prbs: Prbs { low: args.duty[0], high: args.duty[1], bit_periods: args.bit_periods, seed: args.seed, ..Prbs::default() },
+        io: args.io,
+        vin: args.vin,
+        noise_vout: args.noise_vout,
+        noise_il: args.noise_il,
+        noise_seed: args.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        ..Experiment::default()
+    };
+    eprintln!("running {} switching periods (PRBS {}/{}, {} periods per bit)", exp.samples + exp.warmup, args.duty[0], args.duty[1], args.bit_periods);
+    let start = Instant::now();
+    let data = run_experiment(&mut plant, &exp)?;
+    Ok((data, start.elapsed().as_secs_f64(), validation as f64 / exp.samples as f64))
+}
+
+/// Machine-readable result (the contract of `--json`).
+#[derive(Debug, Serialize)]
+struct Output {
+    cl: Interval,
+    fit_percent: FitPercent,
+    model: &'static str,
+    samples: usize,
+    validation_samples: usize,
+    seconds: f64,
+    seconds_experiment: Option<f64>,
+    outputs: Vec<&'static str>,
+    noise_model: &'static str,
+    sigma: Vec<f64>,
+    residuals: Residuals,
+    nominal: BTreeMap<&'static str, f64>,
+    assumed: Vec<String>,
+    source: String,
+    candidates: Vec<CandidateOut>,
+}
+
+#[derive(Debug, Serialize)]
+struct Interval {
+    estimate: f64,
+    ci95: [f64; 2],
+    rel_std: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct FitPercent {
+    simulation: f64,
+    prediction: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Residuals {
+    white: bool,
+    ljung_box: f64,
+    ljung_box_limit: f64,
+    independent_of_input: bool,
+    ccf_statistic: f64,
+    ccf_limit: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct CandidateOut {
+    model: &'static str,
+    cl: Interval,
+    fit_percent: FitPercent,
+    seconds: f64,
+}
+
+fn interval(c: &estimator::identify::Candidate) -> Interval {
+    let e = c.fit.estimate("Cl").copied().unwrap_or(estimator::pem::Estimate {
+        name: "Cl",
+        value: f64::NAN,
+        ci95: (f64::NAN, f64::NAN),
+        rel_std: f64::NAN,
+    });
+    Interval { estimate: e.value, ci95: [e.ci95.0, e.ci95.1], rel_std: e.rel_std }
+}
+
+fn fit_percent(c: &estimator::identify::Candidate) -> FitPercent {
+    FitPercent { simulation: c.validation.fit_simulation[0], prediction: c.validation.fit_prediction[0] }
+}
+
+fn signal_name(s: Signal) -> &'static str {
+    match s {
+        Signal::Vout => "vout",
+        Signal::Il => "il",
+    }
+}
+
+/// Runs the command.
+pub fn run(args: &IdentifyArgs) -> Result<()> {
+    if args.samples < 100 {
+        bail!("--samples {} is too few: at least 100 are needed", args.samples);
+    }
+    let (data, experiment_seconds, holdout, source) = match (&args.fmu, &args.data) {
+        (Some(fmu), _) => {
+            let (data, secs, holdout) = record_from_fmu(args, fmu)?;
+            if let Some(path) = &args.save_data {
+                data.write_csv(path)?;
+                eprintln!("wrote {}", path.display());
+            }
+            (data, Some(secs), holdout, fmu.display().to_string())
+        }
+        (None, Some(path)) => {
+            eprintln!("reading {}", path.display());
+            (DataSet::read_csv(path)?, None, args.holdout, path.display().to_string())
+        }
+        (None, None) => bail!("give --fmu PATH or --data FILE"),
+    };
+    let (nominal, assumed) = nominal_from(&data)?;
+    for a in &assumed {
+        eprintln!("assuming {a}");
+    }
+    let structures = match args.model {
+        ModelChoice::Auto => vec![Structure::Averaged, Structure::Pwm],
+        ModelChoice::Averaged => vec![Structure::Averaged],
+        ModelChoice::Pwm => vec![Structure::Pwm],
+        ModelChoice::Reduced => vec![Structure::Reduced],
+    };
+    let opts = IdentifyOptions {
+        structures,
+        sampling: match args.sampling {
+            SamplingChoice::Start => Sampling::PeriodStart,
+            SamplingChoice::Average => Sampling::PeriodAverage,
+        },
+        outputs: if args.with_il { vec![Signal::Vout, Signal::Il] } else { vec![Signal::Vout] },
+        free: vec![Free::Cl],
+        noise: match args.noise_model {
+            NoiseChoice::Oe => NoiseModel::OutputError,
+            NoiseChoice::Kalman => NoiseModel::Innovations,
+        },
+        cl_guess: args.cl_guess,
+        holdout,
+    };
+    eprintln!("fitting {} samples", data.len());
+    let id = identify(&data, &nominal, &opts)?;
+    print_summary(&id, &source);
+    let out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
+    if let Some(path) = &args.json {
+        std::fs::write(path, serde_json::to_string_pretty(&out)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(dir) = &args.report {
+        let file = crate::report::write(dir, &id, &nominal, &source)?;
+        eprintln!("wrote {}", file.display());
+    }
+    Ok(())
+}
+
+fn output(
+    id: &Identification,
+    nominal: &Params,
+    assumed: &[String],
+    source: &str,
+    experiment_seconds: Option<f64>,
+    noise: NoiseModel,
+) -> Output {
+    let best = id.best();
+    let r = &best.validation.residuals;
+    Output {
+        cl: interval(best),
+        fit_percent: fit_percent(best),
+        model: best.structure.name(),
+        samples: id.estimation_samples,
+        validation_samples: id.validation_samples,
+        seconds: best.seconds,
+        seconds_experiment: experiment_seconds,
+        outputs: id.outputs.iter().map(|s| signal_name(*s)).collect(),
+        noise_model: match noise {
+            NoiseModel::OutputError => "output-error",
+            NoiseModel::Innovations => "innovations",
+        },
+        sigma: best.fit.sigma.clone(),
+        residuals: Residuals {
+            white: r.white(),
+            ljung_box: r.ljung_box,
+            ljung_box_limit: r.ljung_box_limit,
+            independent_of_input: r.independent_of_input(),
+            ccf_statistic: r.ccf_statistic,
+            ccf_limit: r.ccf_limit,
+        },
+        nominal: [("L", nominal.l), ("RL", nominal.rl), ("C", nominal.c), ("Rc", nominal.rc), ("fs", nominal.fs)]
+            .into_iter()
+            .collect(),
+        assumed: assumed.to_vec(),
+        source: source.to_string(),
+        candidates: id
+            .candidates
+            .iter()
+            .map(|c| CandidateOut { model: c.structure.name(), cl: interval(c), fit_percent: fit_percent(c), seconds: c.seconds })
+            .collect(),
+    }
+}
+
+fn print_summary(id: &Identification, source: &str) {
+    let best = id.best();
+    let i = interval(best);
+    let f = fit_percent(best);
+    println!("source      {source}");
+    println!("model       {} ({} estimation + {} held-out samples)", best.structure.name(), id.estimation_samples, id.validation_samples);
+    println!("Cl          {:.4} µF   95 % CI [{:.4}, {:.4}] µF   (±{:.2} %)", i.estimate * 1e6, i.ci95[0] * 1e6, i.ci95[1] * 1e6, 196.0 * i.rel_std);
+    println!("held-out    fit {:.2} % simulation, {:.2} % one-step prediction", f.simulation, f.prediction);
+    let r = &best.validation.residuals;
+    println!(
+        "residuals   {} (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} vs {:.1})",
+        if r.white() { "white" } else { "NOT white" },
+        r.ljung_box,
+        r.ljung_box_limit,
+        if r.independent_of_input() { "independent" } else { "NOT independent" },
+        r.ccf_statistic,
+        r.ccf_limit
+    );
+    if id.candidates.len() > 1 {
+        for c in &id.candidates[1..] {
+            let i = interval(c);
+            println!(
+                "also tried  {}: Cl {:.4} µF, held-out prediction fit {:.2} %",
+                c.structure.name(),
+                i.estimate * 1e6,
+                c.validation.fit_prediction[0]
+            );
+        }
+    }
+    println!("fit time    {:.2} ms", best.seconds * 1e3);
+}

@@ -1,0 +1,139 @@
+//! `buckid`: identify the load capacitance `Cl` of a buck converter from an FMU or a data file.
+//!
+//! Human-readable summary on stdout, progress on stderr, machine-readable JSON with `--json`,
+//! an HTML report with `--report DIR`.
+#![forbid(unsafe_code)]
+
+mod identify;
+mod report;
+mod svg;
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Identify the load capacitance of a buck DC-DC converter.
+#[derive(Debug, Parser)]
+#[command(name = "buckid", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Estimate Cl with its 95 % confidence interval, validated on held-out data.
+    Identify(IdentifyArgs),
+}
+
+/// Model structure choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ModelChoice {
+    /// Fit averaged and PWM, keep the better one on held-out data.
+    Auto,
+    /// Averaged third-order model.
+    Averaged,
+    /// Sampled-data PWM model (exact for switched plants sampled at period start).
+    Pwm,
+    /// Reduced second-order model driven by the measured inductor current.
+    Reduced,
+}
+
+/// Predictor disturbance model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum NoiseChoice {
+    /// Output error (K = 0): white measurement noise; ML for open-loop sensor noise.
+    Oe,
+    /// Innovations form with the Kalman gain estimated.
+    Kalman,
+}
+
+/// Which samples are the outputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SamplingChoice {
+    /// Instantaneous values at each period start (the digital controller's view).
+    Start,
+    /// Exact averages over each period.
+    Average,
+}
+
+#[derive(Debug, Args)]
+struct IdentifyArgs {
+    /// FMI 2.0 Co-Simulation FMU to drive with a PRBS duty.
+    #[arg(long, conflicts_with = "data", required_unless_present = "data")]
+    fmu: Option<PathBuf>,
+    /// CSV data file (see the data contract in the README).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Start value of Cl [F] (default: a grid search over 0.1–300 µF).
+    #[arg(long)]
+    cl_guess: Option<f64>,
+    /// Samples used for estimation (FMU runs record half as many again for validation).
+    #[arg(long, default_value_t = 3001)]
+    samples: usize,
+    /// Seed of the PRBS and of the added noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Map an estimator role (duty, io, vin, vout, il, vout_avg, il_avg) to an FMU variable.
+    #[arg(long = "map", value_name = "ROLE=NAME")]
+    map: Vec<String>,
+    /// Start value of an FMU variable before initialization (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// σ of white noise added to the recorded vout [V] (FMU runs).
+    #[arg(long, default_value_t = 0.0)]
+    noise_vout: f64,
+    /// σ of white noise added to the recorded il [A] (FMU runs).
+    #[arg(long, default_value_t = 0.0)]
+    noise_il: f64,
+    /// Model structure.
+    #[arg(long, value_enum, default_value_t = ModelChoice::Auto)]
+    model: ModelChoice,
+    /// Also fit the inductor current as a second output (when measured).
+    #[arg(long)]
+    with_il: bool,
+    /// Output sampling.
+    #[arg(long, value_enum, default_value_t = SamplingChoice::Start)]
+    sampling: SamplingChoice,
+    /// Predictor disturbance model.
+    #[arg(long, value_enum, default_value_t = NoiseChoice::Oe)]
+    noise_model: NoiseChoice,
+    /// Duty levels of the PRBS.
+    #[arg(long, num_args = 2, value_names = ["LOW", "HIGH"], default_values_t = [0.4, 0.6])]
+    duty: Vec<f64>,
+    /// Switching periods per PRBS bit.
+    #[arg(long, default_value_t = 8)]
+    bit_periods: usize,
+    /// Constant load current during the experiment [A].
+    #[arg(long, default_value_t = 1.0)]
+    io: f64,
+    /// Input voltage during the experiment [V].
+    #[arg(long, default_value_t = 12.0)]
+    vin: f64,
+    /// Fraction of a data file held out for validation (FMU runs record extra samples instead).
+    #[arg(long, default_value_t = 1.0 / 3.0)]
+    holdout: f64,
+    /// Write the result as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write an HTML report with SVG plots into this folder.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Write the recorded data set (CSV contract) to this file (FMU runs).
+    #[arg(long)]
+    save_data: Option<PathBuf>,
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Identify(args) => identify::run(&args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
