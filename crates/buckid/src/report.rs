@@ -19,9 +19,9 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str) ->
     let t0 = v.traces.time.first().copied().unwrap_or(0.0);
     let trace = |y: &[f64]| -> Vec<(f64, f64)> { v.traces.time[..shown].iter().zip(y).map(|(t, y)| ((t - t0) * 1e3, *y)).collect() };
     let traces = Plot {
-        title: "Held-out data: measured vs model (first output)",
+        title: "Held-out data: measured vs model",
         x_label: "time since hold-out start [ms]",
-        y_label: "output",
+        y_label: "vout [V]",
         log_x: false,
         band: None,
         series: vec![
