@@ -488,3 +488,23 @@ pub fn outputs(model: &Model, params: &Params, x0: &[f64], gain: Option<&[f64]>)
     evaluate(model, &levels, lay, &p, &vec![1.0; lay.ny], false, false, Some(&mut rec));
     rec
 }
+
+/// Cramér–Rao bound on the free parameters (log scale, so the diagonal is the relative
+/// variance) at circuit values `params` and initial state `x0`, for white Gaussian output
+/// noise of standard deviation `sigma` per output. The initial state counts as unknown.
+pub fn crlb(model: &Model, params: &Params, x0: &[f64], sigma: &[f64]) -> Result<DMatrix<f64>, EstimatorError> {
+    let lay = Layout { nf: model.free.len(), nx: model.nx(), ny: model.ny(), gain: false };
+    if sigma.len() != lay.ny || x0.len() != lay.nx {
+        return Err(EstimatorError::Config(format!("{} σ and {} initial states for {} outputs and {} states", sigma.len(), x0.len(), lay.ny, lay.nx)));
+    }
+    let mut p = vec![0.0; lay.np()];
+    for (i, f) in model.free.iter().enumerate() {
+        p[i] = f.get(params).ln();
+    }
+    p[lay.nf..].copy_from_slice(x0);
+    let weights: Vec<f64> = sigma.iter().map(|s| 1.0 / s).collect();
+    let levels = model.levels(params, true);
+    let info = evaluate(model, &levels, lay, &p, &weights, true, true, None).jtj;
+    let cov = info.cholesky().map(|c| c.inverse()).ok_or_else(|| EstimatorError::Fit("singular Fisher information".into()))?;
+    Ok(cov.view((0, 0), (lay.nf, lay.nf)).into_owned())
+}
