@@ -108,6 +108,7 @@ fn main() {
     println!("\nCoverage range over the grid: {:.1}–{:.1} % (target 95 ± 3 %).\n", worst_cover.0, worst_cover.1);
 
     println!("## 2. Switched plant sampled at the period start, vout + il (σ = 2 mV, 20 mA), 3001 samples\n");
+    println!("The error and CI columns are one FMU run (seed 1); the RMS column is the typical error.\n");
     let have_fmu = fmu.is_file();
     if !have_fmu {
         println!("(FMU {} not found: run `cargo xtask fmu`; using the in-process switched model)\n", fmu.display());

@@ -119,10 +119,68 @@ struct Eval {
     jtr: DVector<f64>,
 }
 
+/// Largest number of unknowns (5 circuit parameters, 3 states, a 3 × 2 gain).
+const NP_MAX: usize = 14;
+const NU: usize = 2;
+
+/// One level's maps in fixed-size arrays, for the specialised inner loop.
+struct Fixed<const NX: usize, const NY: usize> {
+    f: [[f64; NX]; NX],
+    g: [[f64; NU]; NX],
+    h: [[f64; NX]; NY],
+    d: [[f64; NU]; NY],
+}
+
+impl<const NX: usize, const NY: usize> Fixed<NX, NY> {
+    fn from(m: &crate::model::Maps) -> Self {
+        let mut out = Self { f: [[0.0; NX]; NX], g: [[0.0; NU]; NX], h: [[0.0; NX]; NY], d: [[0.0; NU]; NY] };
+        for i in 0..NX {
+            for j in 0..NX {
+                out.f[i][j] = m.f[i * NX + j];
+            }
+            for j in 0..NU {
+                out.g[i][j] = m.g[i * NU + j];
+            }
+        }
+        for o in 0..NY {
+            for j in 0..NX {
+                out.h[o][j] = m.h[o * NX + j];
+            }
+            for j in 0..NU {
+                out.d[o][j] = m.d[o * NU + j];
+            }
+        }
+        out
+    }
+}
+
 /// Runs the predictor over the data: criterion, per-output residual sums of squares and,
 /// when `jacobian`, `JᵀJ` and `Jᵀr` of the weighted residuals. `sensitivities = false` skips
 /// the derivative columns of the circuit parameters (their maps may then be absent).
+#[allow(clippy::too_many_arguments)]
 fn evaluate(
+    model: &Model,
+    levels: &[Level],
+    lay: Layout,
+    p: &[f64],
+    weights: &[f64],
+    jacobian: bool,
+    sensitivities: bool,
+    record: Option<&mut Vec<f64>>,
+) -> Eval {
+    match (lay.nx, lay.ny) {
+        (3, 1) => evaluate_n::<3, 1>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (3, 2) => evaluate_n::<3, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (2, 1) => evaluate_n::<2, 1>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (2, 2) => evaluate_n::<2, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (nx, ny) => unreachable!("no model has {nx} states and {ny} outputs"),
+    }
+}
+
+/// [`evaluate`] for `NX` states and `NY` outputs. Sensitivities are kept column by column
+/// (`s[c] = ∂x̂/∂p_c`), so every product is a small fixed-size loop.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+fn evaluate_n<const NX: usize, const NY: usize>(
     model: &Model,
     levels: &[Level],
     lay: Layout,
@@ -132,125 +190,141 @@ fn evaluate(
     sensitivities: bool,
     mut record: Option<&mut Vec<f64>>,
 ) -> Eval {
-    let (nf, nx, ny, nu) = (lay.nf, lay.nx, lay.ny, model.nu());
+    let nf = lay.nf;
     let np = lay.np();
-    let mut x: Vec<f64> = p[nf..nf + nx].to_vec();
-    let k_gain: Vec<f64> = if lay.gain { p[nf + nx..].to_vec() } else { vec![0.0; nx * ny] };
-    let mut s = vec![0.0; nx * np];
-    for i in 0..nx {
-        s[i * np + nf + i] = 1.0;
+    let maps: Vec<Fixed<NX, NY>> = levels.iter().map(|l| Fixed::from(&l.maps)).collect();
+    let derivs: Vec<Vec<Fixed<NX, NY>>> = levels
+        .iter()
+        .map(|l| if sensitivities { l.derivs.iter().take(nf).map(Fixed::from).collect() } else { Vec::new() })
+        .collect();
+    let mut x = [0.0; NX];
+    x.copy_from_slice(&p[nf..nf + NX]);
+    let mut k_gain = [[0.0; NY]; NX];
+    if lay.gain {
+        for i in 0..NX {
+            for o in 0..NY {
+                k_gain[i][o] = p[nf + NX + i * NY + o];
+            }
+        }
     }
-    let mut e = vec![0.0; ny];
-    let mut de = vec![0.0; ny * np];
-    let mut xn = vec![0.0; nx];
-    let mut sn = vec![0.0; nx * np];
-    let mut out = Eval { cost: 0.0, sum_sq: vec![0.0; ny], jtj: DMatrix::zeros(np, np), jtr: DVector::zeros(np) };
+    let w: [f64; NY] = std::array::from_fn(|o| weights[o]);
+    let mut s = [[0.0; NX]; NP_MAX];
+    for i in 0..NX {
+        s[nf + i][i] = 1.0;
+    }
+    let mut de = [[0.0; NY]; NP_MAX];
+    let mut jtj = [[0.0; NP_MAX]; NP_MAX];
+    let mut jtr = [0.0; NP_MAX];
+    let mut cost = 0.0;
+    let mut sum_sq = [0.0; NY];
     for k in 0..model.len() {
-        let lev = &levels[model.level_of[k]];
-        let m = &lev.maps;
-        let u = &model.u[k * nu..(k + 1) * nu];
-        let y = &model.y[k * ny..(k + 1) * ny];
-        for o in 0..ny {
-            let mut yh = 0.0;
-            for i in 0..nx {
-                yh += m.h[o * nx + i] * x[i];
+        let j = model.level_of[k];
+        let m = &maps[j];
+        let u = [model.u[k * NU], model.u[k * NU + 1]];
+        let mut e = [0.0; NY];
+        for o in 0..NY {
+            let mut yh = m.d[o][0] * u[0] + m.d[o][1] * u[1];
+            for i in 0..NX {
+                yh += m.h[o][i] * x[i];
             }
-            for j in 0..nu {
-                yh += m.d[o * nu + j] * u[j];
-            }
-            e[o] = y[o] - yh;
-            out.sum_sq[o] += e[o] * e[o];
-            out.cost += (weights[o] * e[o]).powi(2);
+            e[o] = model.y[k * NY + o] - yh;
+            sum_sq[o] += e[o] * e[o];
+            cost += (w[o] * e[o]) * (w[o] * e[o]);
         }
         if let Some(rec) = record.as_deref_mut() {
-            rec.extend(y.iter().zip(&e).map(|(y, e)| y - e));
+            rec.extend((0..NY).map(|o| model.y[k * NY + o] - e[o]));
         }
         if jacobian {
-            for o in 0..ny {
-                for c in 0..np {
+            for c in 0..np {
+                for o in 0..NY {
                     let mut v = 0.0;
-                    for i in 0..nx {
-                        v -= m.h[o * nx + i] * s[i * np + c];
+                    for i in 0..NX {
+                        v -= m.h[o][i] * s[c][i];
                     }
-                    de[o * np + c] = v;
+                    de[c][o] = v;
                 }
-                if sensitivities {
-                    for (f, dm) in lev.derivs.iter().enumerate().take(nf) {
-                        let mut v = 0.0;
-                        for i in 0..nx {
-                            v += dm.h[o * nx + i] * x[i];
-                        }
-                        for j in 0..nu {
-                            v += dm.d[o * nu + j] * u[j];
-                        }
-                        de[o * np + f] -= v;
+            }
+            for (f, dm) in derivs[j].iter().enumerate() {
+                for o in 0..NY {
+                    let mut v = dm.d[o][0] * u[0] + dm.d[o][1] * u[1];
+                    for i in 0..NX {
+                        v += dm.h[o][i] * x[i];
                     }
+                    de[f][o] -= v;
                 }
-                let w = weights[o];
-                let row = &de[o * np..(o + 1) * np];
+            }
+            for o in 0..NY {
+                let ww = w[o] * w[o];
                 for a in 0..np {
-                    out.jtr[a] += w * row[a] * w * e[o];
+                    let ra = ww * de[a][o];
+                    jtr[a] += ra * e[o];
                     for b in a..np {
-                        out.jtj[(a, b)] += w * w * row[a] * row[b];
+                        jtj[a][b] += ra * de[b][o];
                     }
                 }
             }
         }
-        // State update.
-        for i in 0..nx {
-            let mut v = 0.0;
-            for j in 0..nx {
-                v += m.f[i * nx + j] * x[j];
+        // State update x̂ ← F x̂ + G u + K e, and the sensitivities with it.
+        let mut xn = [0.0; NX];
+        for i in 0..NX {
+            let mut v = m.g[i][0] * u[0] + m.g[i][1] * u[1];
+            for jx in 0..NX {
+                v += m.f[i][jx] * x[jx];
             }
-            for j in 0..nu {
-                v += m.g[i * nu + j] * u[j];
-            }
-            for o in 0..ny {
-                v += k_gain[i * ny + o] * e[o];
+            for o in 0..NY {
+                v += k_gain[i][o] * e[o];
             }
             xn[i] = v;
         }
         if jacobian {
-            for i in 0..nx {
-                for c in 0..np {
+            // Column c of the new sensitivity depends only on column c of the old one, so the
+            // update runs in place.
+            for c in 0..np {
+                let old = s[c];
+                for i in 0..NX {
                     let mut v = 0.0;
-                    for j in 0..nx {
-                        v += m.f[i * nx + j] * s[j * np + c];
+                    for jx in 0..NX {
+                        v += m.f[i][jx] * old[jx];
                     }
-                    for o in 0..ny {
-                        v += k_gain[i * ny + o] * de[o * np + c];
+                    for o in 0..NY {
+                        v += k_gain[i][o] * de[c][o];
                     }
-                    sn[i * np + c] = v;
+                    s[c][i] = v;
                 }
-                if sensitivities {
-                    for (f, dm) in lev.derivs.iter().enumerate().take(nf) {
-                        let mut v = 0.0;
-                        for j in 0..nx {
-                            v += dm.f[i * nx + j] * x[j];
-                        }
-                        for j in 0..nu {
-                            v += dm.g[i * nu + j] * u[j];
-                        }
-                        sn[i * np + f] += v;
+            }
+            for (f, dm) in derivs[j].iter().enumerate() {
+                for i in 0..NX {
+                    let mut v = dm.g[i][0] * u[0] + dm.g[i][1] * u[1];
+                    for jx in 0..NX {
+                        v += dm.f[i][jx] * x[jx];
                     }
+                    s[f][i] += v;
                 }
-                if lay.gain {
-                    for o in 0..ny {
-                        sn[i * np + nf + nx + i * ny + o] += e[o];
+            }
+            if lay.gain {
+                for i in 0..NX {
+                    for o in 0..NY {
+                        s[nf + NX + i * NY + o][i] += e[o];
                     }
                 }
             }
-            std::mem::swap(&mut s, &mut sn);
         }
-        std::mem::swap(&mut x, &mut xn);
-        if !out.cost.is_finite() {
-            out.cost = f64::INFINITY;
-            return out;
+        x = xn;
+        if !cost.is_finite() {
+            break;
         }
     }
+    let mut out = Eval {
+        cost: if cost.is_finite() { cost } else { f64::INFINITY },
+        sum_sq: sum_sq.to_vec(),
+        jtj: DMatrix::zeros(np, np),
+        jtr: DVector::zeros(np),
+    };
     for a in 0..np {
-        for b in 0..a {
-            out.jtj[(a, b)] = out.jtj[(b, a)];
+        out.jtr[a] = jtr[a];
+        for b in a..np {
+            out.jtj[(a, b)] = jtj[a][b];
+            out.jtj[(b, a)] = jtj[a][b];
         }
     }
     out
@@ -405,8 +479,7 @@ fn solve_initial_state(model: &Model, levels: &[Level], lay: Layout, mut p: Vec<
     Some(p)
 }
 
-/// Levenberg–Marquardt with Marquardt's diagonal scaling. Trial points are evaluated without
-/// the Jacobian; it is computed only where a step is accepted. Stops when the Gauss–Newton
+/// Levenberg–Marquardt with Marquardt's diagonal scaling. Stops when the Gauss–Newton
 /// step of every unknown is below 1e-4 of its own standard deviation (further iterations
 /// could not move the estimate by anything the data can resolve) or the criterion stalls.
 fn levenberg_marquardt(
@@ -423,6 +496,9 @@ fn levenberg_marquardt(
         evaluate(model, &levels, lay, p, weights, jacobian, jacobian, None)
     };
     let mut cur = eval_at(&p, true);
+    if lay.np() > NP_MAX {
+        return Err(EstimatorError::Config(format!("{} unknowns exceed the supported {NP_MAX}", lay.np())));
+    }
     if !cur.cost.is_finite() {
         return Err(EstimatorError::Fit("the predictor diverges at the start values".into()));
     }
@@ -451,11 +527,12 @@ fn levenberg_marquardt(
         // Keep log-parameter steps sane (a factor e per iteration at most).
         let scale = (1.0 / step.rows(0, lay.nf).amax().max(1e-300)).min(1.0);
         let trial: Vec<f64> = p.iter().zip(step.iter()).map(|(x, s)| x + scale * s).collect();
-        let trial_cost = eval_at(&trial, false).cost;
-        if trial_cost < cur.cost {
-            let rel = (cur.cost - trial_cost) / cur.cost.max(1e-300);
+        // The Jacobian comes with the trial: near the optimum nearly every trial is accepted.
+        let next = eval_at(&trial, true);
+        if next.cost < cur.cost {
+            let rel = (cur.cost - next.cost) / cur.cost.max(1e-300);
             p = trial;
-            cur = eval_at(&p, true);
+            cur = next;
             lambda = (lambda / 10.0).max(1e-12);
             if rel < 1e-12 {
                 return Ok((p, it, true, cur));
