@@ -1,18 +1,29 @@
 #!/usr/bin/env python3
-"""Ideal-switch synchronous buck converter simulated in ngspice.
+"""Buck converter simulated in ngspice: ideal switch, MOSFET synchronous, or diode asynchronous.
 
-Independent "real plant" reference: the netlist ``buck_ideal.cir`` (next to this
-file) is driven by a per-period duty sequence with trailing-edge PWM and the
-transient is reduced to per-switching-period data (period-start samples and
-exact period averages).  Only numpy is required (plus ``ngspice`` on PATH).
+Independent "real plant" reference: a netlist next to this file is driven by
+a per-period duty sequence with trailing-edge PWM and the transient is reduced
+to per-switching-period data (period-start samples and exact period
+averages).  Only numpy is required (plus ``ngspice`` on PATH).
+
+Circuits (``circuit=`` / ``--circuit``):
+
+  ideal  ``buck_ideal.cir``: ideal switch node, the averaged model's physics
+  sync   ``buck_sync.cir``: two VDMOS MOSFETs (Rds_on, body diodes,
+         capacitances), gate drivers with finite ramps and a dead time
+  async  ``buck_async.cir``: one VDMOS high-side switch and a Schottky
+         freewheeling diode (forward drop; DCM at light load, with ringing)
+
+All three share the passive network and its states:
 
     L  dil/dt = u_sw - RL*il - vo
     C  dvc/dt = (vo - vc)/Rc
     Cl dvo/dt = il - io - (vo - vc)/Rc
 
-Period k spans [k*T, (k+1)*T); u_sw = U on [k*T, k*T + d_k*T), 0 otherwise.
+Period k spans [k*T, (k+1)*T); the PWM signal is high on [k*T, k*T + d_k*T).
+Ideal: u_sw = U while the PWM is high, 0 otherwise.
 
-Switch-node edges: SPICE needs finite edges, so each ideal step is replaced by
+Switch-node edges (ideal): SPICE needs finite edges, so each ideal step is replaced by
 a linear ramp of width ``edge`` (default 10 ps) *centred* on the ideal
 switching instant.  Each period's volt-seconds are then exactly U*d_k*T and the
 state after an edge equals the ideal one; only inside an edge does il deviate,
@@ -21,11 +32,19 @@ an edge) is off by at most U*edge/(4*L), about 9 uA with the defaults.  Duties
 within 2*edge/T of 0 or 1 get proportionally shorter edges; period 0 rises
 over [0, edge/2] (nothing can start before t = 0), see _switch_sources.
 
+Gate timing (sync/async): gate voltages ramp linearly over ``gate_rise``
+(default 5 ns), ramps centred on the nominal instants.  async: the high-side
+gate follows the PWM signal.  sync: a dead-time generator delays each turn-on
+by ``dead_time`` (30 ns): high side on over [k*T + dead_time, k*T + d_k*T],
+low side on over [k*T + d_k*T + dead_time, (k+1)*T].  Gate pulses shorter
+than one ramp are swallowed.  ``warmup`` periods at duty[0] are simulated
+first and dropped (the real circuits start from an approximate DC point).
+
 CLI example:
     python scripts/spice/buck_spice.py --periods 3001 --cl 10e-6 --io 1 --seed 1 --out data.csv
-"""
-
+    python scripts/spice/buck_spice.py --circuit sync --warmup 200 --out sync.csv --truth sync.json
 import argparse
+import json
 import math
 import os
 import re
@@ -38,7 +57,10 @@ import time as _time
 
 import numpy as np
 
-TEMPLATE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "buck_ideal.cir")
+HERE = os.path.dirname(os.path.abspath(__file__))
+CIRCUITS = ("ideal", "sync", "async")
+TEMPLATES = {c: os.path.join(HERE, f"buck_{c}.cir") for c in CIRCUITS}
+TEMPLATE = TEMPLATES["ideal"]
 
 # Solver settings.  The circuit is linear, so the step size is set by max_step
 # (tolerances barely matter); trapezoidal integration is 2nd order and beat
@@ -47,6 +69,25 @@ TEMPLATE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "buck_ideal.
 # <= 6 uA in il_avg, <= 11 uA in il_start, ~3 s wall time.
 DEFAULT_STEPS_PER_PERIOD = 100
 SOLVER_OPTIONS = dict(method="trap", reltol=1e-6, abstol=1e-12, vntol=1e-9, chgtol=1e-16)
+
+# Solver settings of the real (nonlinear) circuits; see simulate() for the
+# accuracy checks behind them.  rshunt (1e12 ohm from every node to ground)
+# keeps the floating gate-drive nodes well posed.
+REAL_SOLVER_OPTIONS = dict(method="trap", reltol=1e-4, abstol=1e-9, vntol=1e-6, chgtol=1e-14,
+                           rshunt=1e12, itl4=50)
+
+# Power MOSFET (ngspice VDMOS, n-channel), roughly a 30 V / 10 mOhm part.
+# Kp, Rd and Rs are derived from rds_on and the gate drive in _mosfet_card;
+# the built-in body diode is Is/N/Rb (Vf about 0.77 V at 2 A), its junction
+# capacitance Cjo/Vj/M is the output capacitance Coss; TT = 0 (no reverse recovery).
+MOSFET_DEFAULTS = dict(Vto=2.5, Rg=1.0, Cgs=1.5e-9, Cgdmax=0.5e-9, Cgdmin=50e-12, A=0.5,
+                       Is=1e-12, N=1.0, Rb=20e-3, Cjo=400e-12, Vj=0.7, M=0.5, TT=0.0)
+# Schottky freewheeling diode, roughly a 40 V / 3 A part: Vf about 0.44 V at 3 A
+# (0.38 V at 1 A, 0.30 V at 0.1 A).
+DIODE_DEFAULTS = dict(Is=5e-6, N=1.1, Rs=25e-3, Cjo=300e-12, Vj=0.4, M=0.5)
+# Switch-node RC snubber of the asynchronous buck (damps the DCM ringing);
+# None or (0, 0) leaves it out.
+SNUBBER_DEFAULT = (47.0, 470e-12)
 
 
 def prbs_duty(n_periods, bit_periods=8, low=0.4, high=0.6, seed=1):

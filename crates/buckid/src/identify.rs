@@ -24,7 +24,8 @@ fn pair(s: &str, flag: &str) -> Result<(String, String)> {
 pub fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
     let mut p = Params::default();
     let mut assumed = Vec::new();
-    let fields: [(&str, fn(&mut Params) -> &mut f64); 5] = [
+    type Field = fn(&mut Params) -> &mut f64;
+    let fields: [(&str, Field); 5] = [
         ("L", |p| &mut p.l),
         ("RL", |p| &mut p.rl),
         ("C", |p| &mut p.c),

@@ -1,4 +1,5 @@
 //! `buckid` as a user runs it: data files in, summary/JSON out, clear errors for bad input.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
 use std::path::Path;
 use std::process::{Command, Output};
 

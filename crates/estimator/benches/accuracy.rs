@@ -11,6 +11,7 @@
 //!    averaged one (target |error| < 2 % for Cl ≥ 1 µF, < 10 % for 0.2–0.5 µF), and the CI
 //!    coverage of the PWM model over N/5 in-process switched runs.
 //! 3. The thesis's own figures beside ours (docs/thesis-figures.md).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
 use std::path::PathBuf;
 use std::time::Instant;
 

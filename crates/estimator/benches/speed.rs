@@ -3,6 +3,7 @@
 //! (`benches/scipy_baseline.py`, run with the project's venv).
 //!
 //! `cargo bench -p estimator --bench speed -- [--python .venv/bin/python]`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;

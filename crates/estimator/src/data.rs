@@ -90,7 +90,7 @@ impl DataSet {
             }
         }
         let dt = self.sample_period();
-        if !(dt > 0.0) {
+        if dt.is_nan() || dt <= 0.0 {
             return Err(data_err("`time` must increase"));
         }
         if let Some(i) = (1..n).find(|&i| ((self.time[i] - self.time[i - 1]) - dt).abs() > 1e-3 * dt) {

@@ -128,13 +128,16 @@ pub struct Experiment {
     pub noise_vout: f64,
     /// Standard deviation of white noise added to `il` (and `il_avg`) [A].
     pub noise_il: f64,
+    /// Standard deviation of an unmeasured load-current disturbance [A], drawn afresh every
+    /// period and applied to the plant (process noise); the recorded `io` stays the nominal.
+    pub noise_load: f64,
     /// Seed of the noise.
     pub noise_seed: u64,
 }
 
 impl Default for Experiment {
     fn default() -> Self {
-        Self { samples: 3001, warmup: 64, prbs: Prbs::default(), io: 1.0, vin: 12.0, noise_vout: 0.0, noise_il: 0.0, noise_seed: 7 }
+        Self { samples: 3001, warmup: 64, prbs: Prbs::default(), io: 1.0, vin: 12.0, noise_vout: 0.0, noise_il: 0.0, noise_load: 0.0, noise_seed: 7 }
     }
 }
 
@@ -158,9 +161,9 @@ pub trait Plant {
     fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError>;
     /// Outputs at the current period start.
     fn sample(&mut self) -> Result<PeriodSample, EstimatorError>;
-    /// Applies `duty` for one switching period; afterwards `sample` gives the next period start
-    /// (and the averages over the period just run).
-    fn step_period(&mut self, duty: f64) -> Result<(), EstimatorError>;
+    /// Applies `duty` and load current `io` for one switching period; afterwards `sample`
+    /// gives the next period start (and the averages over the period just run).
+    fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError>;
     /// Metadata describing the plant for the data set (`fs`, `L`, …).
     fn describe(&self) -> Vec<(String, String)>;
 }
@@ -170,16 +173,20 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
     if exp.samples < 2 {
         return Err(EstimatorError::Config(format!("{} samples requested; at least 2 are needed", exp.samples)));
     }
-    for (name, sigma) in [("noise on vout", exp.noise_vout), ("noise on il", exp.noise_il)] {
+    for (name, sigma) in [("noise on vout", exp.noise_vout), ("noise on il", exp.noise_il), ("load noise", exp.noise_load)] {
         if !(sigma >= 0.0 && sigma.is_finite()) {
             return Err(EstimatorError::Config(format!("{name} must be a finite σ ≥ 0, got {sigma}")));
         }
     }
     let duties = exp.prbs.duties(exp.samples + exp.warmup)?;
     let fs = plant.switching_frequency();
+    // Load disturbance from its own stream, so adding it leaves the sensor noise unchanged.
+    let mut load_rng = ChaCha8Rng::seed_from_u64(exp.noise_seed ^ 0x10AD);
+    let load = Normal::new(0.0, exp.noise_load.max(f64::MIN_POSITIVE)).map_err(|e| EstimatorError::Config(e.to_string()))?;
+    let mut io_at = move || if exp.noise_load > 0.0 { exp.io + load.sample(&mut load_rng) } else { exp.io };
     plant.start(duties[0], exp.io, exp.vin)?;
     for &d in &duties[..exp.warmup] {
-        plant.step_period(d)?;
+        plant.step_period(d, io_at())?;
     }
     let mut data = DataSet::default();
     let (mut il, mut vavg, mut iavg) = (Vec::new(), Vec::new(), Vec::new());
@@ -187,7 +194,7 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
     // The averages of period k arrive after stepping it; the start sample of k before.
     let mut start = plant.sample()?;
     for (k, &d) in duties[exp.warmup..].iter().enumerate() {
-        plant.step_period(d)?;
+        plant.step_period(d, io_at())?;
         let next = plant.sample()?;
         data.time.push(k as f64 / fs);
         data.duty.push(d);
@@ -225,6 +232,9 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
     data.meta.insert("U".into(), format!("{}", exp.vin));
     data.meta.insert("noise_vout".into(), format!("{}", exp.noise_vout));
     data.meta.insert("noise_il".into(), format!("{}", exp.noise_il));
+    if exp.noise_load > 0.0 {
+        data.meta.insert("noise_load".into(), format!("{}", exp.noise_load));
+    }
     Ok(data)
 }
 
@@ -261,8 +271,9 @@ impl Plant for ModelPlant {
         Ok(PeriodSample { vout: y.vout, il: y.il, average: Some((y.vout_avg, y.il_avg)) })
     }
 
-    fn step_period(&mut self, duty: f64) -> Result<(), EstimatorError> {
+    fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {
         self.converter.set(VarId::Duty, duty).map_err(plant_err)?;
+        self.converter.set(VarId::Io, io).map_err(plant_err)?;
         self.converter.step(self.converter.params().period()).map_err(plant_err)
     }
 
@@ -298,7 +309,7 @@ mod tests {
             let ones = bits[..len].iter().filter(|b| **b).count();
             assert_eq!(ones, 1 << (order - 1), "order {order}");
             // Not periodic with any shorter divisor period.
-            for p in (1..len).filter(|p| len % p == 0) {
+            for p in (1..len).filter(|p| len.is_multiple_of(*p)) {
                 assert_ne!(bits[..len - p], bits[p..len], "order {order} has period {p}");
             }
         }

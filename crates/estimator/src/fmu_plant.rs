@@ -166,8 +166,9 @@ impl Plant for FmuPlant {
         Ok(PeriodSample { vout, il, average })
     }
 
-    fn step_period(&mut self, duty: f64) -> Result<(), EstimatorError> {
+    fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {
         self.set("duty", duty)?;
+        self.set("io", io)?;
         let t = self.periods as f64 / self.fs;
         self.instance.do_step(t, 1.0 / self.fs).map_err(plant_err)?;
         self.periods += 1;

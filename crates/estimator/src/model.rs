@@ -24,7 +24,12 @@ pub enum Structure {
     /// Sampled-data PWM model: exact for the switched circuit sampled at period starts
     /// (switching ripple, trailing-edge modulation within the period).
     Pwm,
-    /// Reduced second-order model: the measured inductor current drives `vc`, `vo`.
+    /// Reduced second-order model: the measured inductor current drives `vc`, `vo`. Within a
+    /// period the current is the quadratic through its two period-start samples with the
+    /// measured period average, so the charge delivered per period is exact (the charge mode is
+    /// an integrator: any error in it would drift). Exact for smooth currents (averaged data);
+    /// on switched data it cannot see the ripple shape and is biased for small Cl, like
+    /// [`Structure::Averaged`].
     Reduced,
 }
 
@@ -256,6 +261,9 @@ impl Model {
         let n = data.len();
         let y: Vec<f64> = (0..n).flat_map(|k| cols.iter().map(move |c| c[k])).collect();
 
+        // The reduced model needs the next period-start sample: it uses one sample less.
+        let n = if structure == Structure::Reduced { n - 1 } else { n };
+        let y = y[..n * outputs.len()].to_vec();
         let (levels, level_of) = match structure {
             Structure::Pwm => {
                 let mut levels: Vec<f64> = Vec::new();
@@ -284,10 +292,14 @@ impl Model {
             Structure::Averaged => (0..n).flat_map(|k| [data.duty[k] * data.vin[k], data.io[k]]).collect(),
             Structure::Pwm => (0..n).flat_map(|k| [data.vin[k], data.io[k]]).collect(),
             Structure::Reduced => {
-                let il = data.il_avg.as_ref().or(data.il.as_ref()).ok_or_else(|| {
-                    EstimatorError::Data("the reduced model needs a measured `il` or `il_avg` column".into())
-                })?;
-                (0..n).flat_map(|k| [il[k], data.io[k]]).collect()
+                let (Some(il), Some(avg)) = (data.il.as_ref(), data.il_avg.as_ref()) else {
+                    return Err(EstimatorError::Data(
+                        "the reduced model needs the measured `il` (period start) and `il_avg` (period average) columns".into(),
+                    ));
+                };
+                // [il at the period start, its period average, il at the period end, io]; the
+                // last sample, which has no period end, was dropped above.
+                (0..n).flat_map(|k| [il[k], avg[k], il[k + 1], data.io[k]]).collect()
             }
         };
         Ok(Self { structure, sampling, outputs: outputs.to_vec(), free: free.to_vec(), levels, level_of, u, y, period })
@@ -300,7 +312,7 @@ impl Model {
 
     /// Number of inputs.
     pub fn nu(&self) -> usize {
-        2
+        if self.structure == Structure::Reduced { 4 } else { 2 }
     }
 
     /// Number of outputs.
@@ -321,13 +333,13 @@ impl Model {
     /// State of the DC operating point for the first sample's inputs (a start guess).
     pub fn dc_state(&self, p: &Params) -> Vec<f64> {
         let (a, b) = self.lti(p, None);
-        let u = nalgebra::DVector::from_row_slice(&self.u[..2]);
         let u = match self.structure {
             Structure::Pwm => {
                 let d = self.levels[self.level_of[0]];
-                nalgebra::DVector::from_row_slice(&[d * u[0], u[1]])
+                nalgebra::DVector::from_row_slice(&[d * self.u[0], self.u[1]])
             }
-            _ => u,
+            Structure::Averaged => nalgebra::DVector::from_row_slice(&self.u[..2]),
+            Structure::Reduced => nalgebra::DVector::from_row_slice(&[self.u[1], self.u[3]]),
         };
         let rhs = -(b * u);
         a.lu().solve(&rhs).map_or_else(|| vec![0.0; self.nx()], |x| x.as_slice().to_vec())
@@ -352,6 +364,33 @@ impl Model {
             c[(i, col)] = 1.0;
         }
         c
+    }
+
+    /// Maps of the quadratic-hold discretization `d` of the reduced model in the inputs
+    /// `[il_k, il_avg_k, il_k+1, io]`: with `Δ1 = il_k+1 − il_k` and `Δa = il_avg_k − il_k`,
+    /// `il(t) = il_k + a·t + b·t²` has `a·T = 6Δa − 2Δ1` and `b·T² = 3Δ1 − 6Δa`. `value` selects
+    /// the constant output selection (false for a derivative, whose selection is zero).
+    fn hold_maps(&self, d: &Discrete, sel: &DMatrix<f64>, t: f64, value: bool) -> Maps {
+        let to_inputs = |x: &DMatrix<f64>, b: &DMatrix<f64>| {
+            let (e2, e3, e4) = (x.column(2), x.column(3), x.column(4));
+            let mut g = DMatrix::zeros(5, 4);
+            // il(0) = il_k, il'(0) = a, il'' = 2b.
+            g.set_column(0, &(e2 - e3 * (4.0 / t) + e4 * (6.0 / (t * t))));
+            g.set_column(1, &(e3 * (6.0 / t) - e4 * (12.0 / (t * t))));
+            g.set_column(2, &(e4 * (6.0 / (t * t)) - e3 * (2.0 / t)));
+            g.set_column(3, &b.column(0));
+            g.rows(0, 2).into_owned()
+        };
+        let f = d.ad.view((0, 0), (2, 2)).into_owned();
+        let g = to_inputs(&d.ad, &d.bd);
+        let (h, dd) = match self.sampling {
+            Sampling::PeriodStart if value => (sel.clone(), DMatrix::zeros(self.ny(), 4)),
+            Sampling::PeriodStart => (DMatrix::zeros(self.ny(), 2), DMatrix::zeros(self.ny(), 4)),
+            Sampling::PeriodAverage => {
+                (sel * d.ia.view((0, 0), (2, 2)) / t, sel * to_inputs(&d.ia, &d.ib) / t)
+            }
+        };
+        Maps::from(&f, &g, &h, &dd)
     }
 
     /// Maps of every level at circuit parameters `p`, with derivatives for the free ones when
@@ -391,7 +430,7 @@ impl Model {
         };
         let zero_out = || (DMatrix::zeros(self.ny(), self.nx()), DMatrix::zeros(self.ny(), 2));
         match self.structure {
-            Structure::Averaged | Structure::Reduced => {
+            Structure::Averaged => {
                 let (p0, dp) = piece(t);
                 let (h, d) = out(&(&p0.ia / t), &(&p0.ib / t));
                 let maps = Maps::from(&p0.ad, &p0.bd, &h, &d);
@@ -406,6 +445,32 @@ impl Model {
                     })
                     .collect();
                 vec![Level { maps, derivs }]
+            }
+            Structure::Reduced => {
+                // Quadratic hold: the current, its slope and its (constant) second derivative
+                // are held states of a 5-state generator [vc, vo, il, il', il''] with io as input.
+                let hold = |l: &Lti, chain: f64| {
+                    let mut a = DMatrix::zeros(5, 5);
+                    a.view_mut((0, 0), (2, 2)).copy_from(&l.a);
+                    a.view_mut((0, 2), (2, 1)).copy_from(&l.b.column(0));
+                    a[(2, 3)] = chain;
+                    a[(3, 4)] = chain;
+                    let mut b = DMatrix::zeros(5, 1);
+                    b.view_mut((0, 0), (2, 1)).copy_from(&l.b.column(1));
+                    Lti { a, b }
+                };
+                let aug = hold(&lti, 1.0);
+                let mut base = None;
+                let derivs = derivs
+                    .iter()
+                    .map(|dl| {
+                        let (b, d) = aug.discretize_with_derivative(&hold(dl, 0.0), t);
+                        base.get_or_insert(b);
+                        self.hold_maps(&d, &sel, t, false)
+                    })
+                    .collect();
+                let base = base.unwrap_or_else(|| aug.discretize(t));
+                vec![Level { maps: self.hold_maps(&base, &sel, t, true), derivs }]
             }
             Structure::Pwm => {
                 // Off-time input is [0, io]: the switch node is grounded.

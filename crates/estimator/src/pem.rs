@@ -121,17 +121,16 @@ struct Eval {
 
 /// Largest number of unknowns (5 circuit parameters, 3 states, a 3 × 2 gain).
 const NP_MAX: usize = 14;
-const NU: usize = 2;
 
 /// One level's maps in fixed-size arrays, for the specialised inner loop.
-struct Fixed<const NX: usize, const NY: usize> {
+struct Fixed<const NX: usize, const NY: usize, const NU: usize> {
     f: [[f64; NX]; NX],
     g: [[f64; NU]; NX],
     h: [[f64; NX]; NY],
     d: [[f64; NU]; NY],
 }
 
-impl<const NX: usize, const NY: usize> Fixed<NX, NY> {
+impl<const NX: usize, const NY: usize, const NU: usize> Fixed<NX, NY, NU> {
     fn from(m: &crate::model::Maps) -> Self {
         let mut out = Self { f: [[0.0; NX]; NX], g: [[0.0; NU]; NX], h: [[0.0; NX]; NY], d: [[0.0; NU]; NY] };
         for i in 0..NX {
@@ -154,6 +153,10 @@ impl<const NX: usize, const NY: usize> Fixed<NX, NY> {
     }
 }
 
+fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
 /// Runs the predictor over the data: criterion, per-output residual sums of squares and,
 /// when `jacobian`, `JᵀJ` and `Jᵀr` of the weighted residuals. `sensitivities = false` skips
 /// the derivative columns of the circuit parameters (their maps may then be absent).
@@ -168,19 +171,18 @@ fn evaluate(
     sensitivities: bool,
     record: Option<&mut Vec<f64>>,
 ) -> Eval {
-    match (lay.nx, lay.ny) {
-        (3, 1) => evaluate_n::<3, 1>(model, levels, lay, p, weights, jacobian, sensitivities, record),
-        (3, 2) => evaluate_n::<3, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
-        (2, 1) => evaluate_n::<2, 1>(model, levels, lay, p, weights, jacobian, sensitivities, record),
-        (2, 2) => evaluate_n::<2, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
-        (nx, ny) => unreachable!("no model has {nx} states and {ny} outputs"),
+    match (lay.nx, lay.ny, model.nu()) {
+        (3, 1, 2) => evaluate_n::<3, 1, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (3, 2, 2) => evaluate_n::<3, 2, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (2, 1, 4) => evaluate_n::<2, 1, 4>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (nx, ny, nu) => unreachable!("no model has {nx} states, {ny} outputs and {nu} inputs"),
     }
 }
 
-/// [`evaluate`] for `NX` states and `NY` outputs. Sensitivities are kept column by column
+/// [`evaluate`] for `NX` states, `NY` outputs and `NU` inputs. Sensitivities are kept column by column
 /// (`s[c] = ∂x̂/∂p_c`), so every product is a small fixed-size loop.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
-fn evaluate_n<const NX: usize, const NY: usize>(
+fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
     model: &Model,
     levels: &[Level],
     lay: Layout,
@@ -192,8 +194,8 @@ fn evaluate_n<const NX: usize, const NY: usize>(
 ) -> Eval {
     let nf = lay.nf;
     let np = lay.np();
-    let maps: Vec<Fixed<NX, NY>> = levels.iter().map(|l| Fixed::from(&l.maps)).collect();
-    let derivs: Vec<Vec<Fixed<NX, NY>>> = levels
+    let maps: Vec<Fixed<NX, NY, NU>> = levels.iter().map(|l| Fixed::from(&l.maps)).collect();
+    let derivs: Vec<Vec<Fixed<NX, NY, NU>>> = levels
         .iter()
         .map(|l| if sensitivities { l.derivs.iter().take(nf).map(Fixed::from).collect() } else { Vec::new() })
         .collect();
@@ -220,10 +222,10 @@ fn evaluate_n<const NX: usize, const NY: usize>(
     for k in 0..model.len() {
         let j = model.level_of[k];
         let m = &maps[j];
-        let u = [model.u[k * NU], model.u[k * NU + 1]];
+        let u: [f64; NU] = std::array::from_fn(|j| model.u[k * NU + j]);
         let mut e = [0.0; NY];
         for o in 0..NY {
-            let mut yh = m.d[o][0] * u[0] + m.d[o][1] * u[1];
+            let mut yh = dot(&m.d[o], &u);
             for i in 0..NX {
                 yh += m.h[o][i] * x[i];
             }
@@ -246,7 +248,7 @@ fn evaluate_n<const NX: usize, const NY: usize>(
             }
             for (f, dm) in derivs[j].iter().enumerate() {
                 for o in 0..NY {
-                    let mut v = dm.d[o][0] * u[0] + dm.d[o][1] * u[1];
+                    let mut v = dot(&dm.d[o], &u);
                     for i in 0..NX {
                         v += dm.h[o][i] * x[i];
                     }
@@ -267,7 +269,7 @@ fn evaluate_n<const NX: usize, const NY: usize>(
         // State update x̂ ← F x̂ + G u + K e, and the sensitivities with it.
         let mut xn = [0.0; NX];
         for i in 0..NX {
-            let mut v = m.g[i][0] * u[0] + m.g[i][1] * u[1];
+            let mut v = dot(&m.g[i], &u);
             for jx in 0..NX {
                 v += m.f[i][jx] * x[jx];
             }
@@ -294,7 +296,7 @@ fn evaluate_n<const NX: usize, const NY: usize>(
             }
             for (f, dm) in derivs[j].iter().enumerate() {
                 for i in 0..NX {
-                    let mut v = dm.g[i][0] * u[0] + dm.g[i][1] * u[1];
+                    let mut v = dot(&dm.g[i], &u);
                     for jx in 0..NX {
                         v += dm.f[i][jx] * x[jx];
                     }

@@ -1,0 +1,64 @@
+//! Identification end to end on the in-process plant: the reduced model, and the innovations
+//! (Kalman) predictor under an unmeasured load disturbance.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
+use buck_model::{Mode, Params};
+use estimator::experiment::{Experiment, ModelPlant, run};
+use estimator::identify::{IdentifyOptions, identify};
+use estimator::model::{Sampling, Structure};
+use estimator::pem::NoiseModel;
+
+fn cl_fit(truth: f64, mode: Mode, exp: &Experiment, opts: &IdentifyOptions) -> (f64, (f64, f64), bool) {
+    let data = run(&mut ModelPlant::new(Params { cl: truth, ..Params::default() }, mode), exp).unwrap();
+    let id = identify(&data, &Params::default(), opts).unwrap();
+    let e = id.best().fit.estimate("Cl").unwrap();
+    (e.value, e.ci95, id.best().validation.residuals.white())
+}
+
+/// The reduced model (measured inductor current in, vout out) recovers Cl from the averaged
+/// plant: its quadratic hold of the current conserves the charge per period exactly, so nothing
+/// drifts. (On switched data it cannot see the intra-period ripple, like the averaged model;
+/// the PWM model is the exact one there.)
+#[test]
+fn reduced_model_recovers_cl_from_measured_current() {
+    let exp = Experiment { samples: 3001, noise_vout: 2e-3, ..Experiment::default() };
+    let opts = IdentifyOptions { structures: vec![Structure::Reduced], ..IdentifyOptions::default() };
+    for truth in [1e-6, 10e-6, 47e-6] {
+        let (cl, ci, white) = cl_fit(truth, Mode::Averaged, &exp, &opts);
+        assert!(ci.0 <= truth && truth <= ci.1, "averaged plant: {truth:e} outside {ci:?} (estimate {cl:e})");
+        assert!(white, "averaged plant, Cl {truth:e}: residuals not white");
+    }
+}
+
+/// With an unmeasured load-current disturbance (process noise, σ = 0.3 A per period) the
+/// output-error residuals are coloured; the innovations predictor whitens them and its CI95
+/// covers the true Cl.
+#[test]
+fn innovations_predictor_handles_process_noise() {
+    let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_load: 0.3, ..Experiment::default() };
+    for truth in [2.2e-6, 22e-6] {
+        for noise in [NoiseModel::OutputError, NoiseModel::Innovations] {
+            let opts = IdentifyOptions { structures: vec![Structure::Pwm], noise, ..IdentifyOptions::default() };
+            let (cl, ci, white) = cl_fit(truth, Mode::Switched, &exp, &opts);
+            match noise {
+                NoiseModel::OutputError => assert!(!white, "OE residuals should be coloured by the load disturbance"),
+                _ => {
+                    assert!(white, "innovations residuals not white (Cl {truth:e})");
+                    assert!(ci.0 <= truth && truth <= ci.1, "{truth:e} outside {ci:?} (estimate {cl:e})");
+                }
+            }
+        }
+    }
+}
+
+/// On noise-free data the reduced model fits to far below the sensor noise at the true Cl.
+#[test]
+fn reduced_model_is_accurate_at_the_true_cl() {
+    use estimator::model::{Free, Model, Signal};
+    use estimator::pem::{FitOptions, fit};
+    let truth = Params { cl: 1e-6, ..Params::default() };
+    let data = run(&mut ModelPlant::new(truth, Mode::Averaged), &Experiment { samples: 1000, ..Experiment::default() }).unwrap();
+    let m = Model::new(Structure::Reduced, Sampling::PeriodStart, &[Signal::Vout], &[Free::Cl], &data, truth.period()).unwrap();
+    let f = fit(&m, &truth, &FitOptions { guess: Some(vec![truth.cl]), ..FitOptions::default() }).unwrap();
+    assert!(f.sigma[0] < 0.1e-3, "residual rms {:e} V", f.sigma[0]);
+    assert!((f.estimate("Cl").unwrap().value / truth.cl - 1.0).abs() < 0.002);
+}
