@@ -3,8 +3,9 @@
 8 periods per bit) in switched mode, Cl = 10 µF, by
 
   1. the Rust model in process (`trajectory` example; its own timer around the stepping loop),
-  2. the FMU driven from Python by fmpy (one setReal/doStep/getReal per period),
-  3. ngspice on the same ideal-switch circuit (scripts/spice; wall time of the transient run).
+  2. the FMU driven from Rust through our importer (`drive_fmu` example: set, doStep, get per period),
+  3. the FMU driven from Python by fmpy (one setReal/doStep/getReal per period),
+  4. ngspice on the same ideal-switch circuit (scripts/spice; wall time of the transient run).
 
 Prints a Markdown table with the ratios against ngspice. Each figure is the best of `--repeat`
 runs. Usage: .venv/bin/python scripts/bench_sim.py [--repeat 5]
@@ -33,6 +34,8 @@ PERIODS, CL, IO = 3001, 10e-6, 1.0
 def build() -> tuple[Path, Path]:
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "buck-model", "--example", "trajectory"],
                    cwd=REPO, check=True)
+    subprocess.run(["cargo", "build", "--release", "-q", "-p", "estimator", "--example", "drive_fmu"],
+                   cwd=REPO, check=True)
     fmu = subprocess.run(["cargo", "xtask", "fmu"], cwd=REPO, check=True, capture_output=True, text=True)
     return REPO / "target" / "release" / "examples" / "trajectory", Path(fmu.stdout.strip().splitlines()[-1])
 
@@ -41,6 +44,13 @@ def in_process(binary: Path, duty) -> float:
     text = "\n".join(f"{d}" for d in duty)
     proc = subprocess.run([str(binary), "switched", str(CL), str(IO)], input=text, capture_output=True,
                           text=True, check=True)
+    return float(re.search(r"in ([0-9.]+) ms", proc.stderr).group(1)) / 1e3
+
+
+def through_rust_importer(fmu: Path, duty) -> float:
+    text = "\n".join(f"{d}" for d in duty)
+    proc = subprocess.run([str(REPO / "target" / "release" / "examples" / "drive_fmu"), str(fmu), f"Cl={CL}", "mode=2"],
+                          input=text, capture_output=True, text=True, check=True)
     return float(re.search(r"in ([0-9.]+) ms", proc.stderr).group(1)) / 1e3
 
 
@@ -67,6 +77,7 @@ def main() -> None:
     best = lambda f: min(f() for _ in range(args.repeat))  # noqa: E731
     rows = [
         ("Rust model, in process", best(lambda: in_process(binary, duty))),
+        ("FMU from our Rust importer (loop per period)", best(lambda: through_rust_importer(fmu, duty))),
         ("FMU from fmpy (Python loop per period)", best(lambda: through_fmpy(fmu, duty))),
         ("ngspice 39, ideal switch (T/100 max step)", best(lambda: ngspice(duty))),
     ]

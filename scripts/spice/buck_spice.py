@@ -43,6 +43,8 @@ first and dropped (the real circuits start from an approximate DC point).
 CLI example:
     python scripts/spice/buck_spice.py --periods 3001 --cl 10e-6 --io 1 --seed 1 --out data.csv
     python scripts/spice/buck_spice.py --circuit sync --warmup 200 --out sync.csv --truth sync.json
+"""
+
 import argparse
 import json
 import math
@@ -208,39 +210,177 @@ def _period_reduce(t, y, T, n):
     return yk[:n], np.diff(F) / T
 
 
-def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=12.0,
-             io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12):
-    """Simulate the ideal-switch buck in ngspice for len(duty) periods.
+def _model_card(name, kind, params):
+    """A one-line .model card from a parameter dict (values via _num)."""
+    return f".model {name} {kind}(" + " ".join(f"{k}={_num(v)}" for k, v in params.items()) + ")"
 
-    duty: per-period duty d_k in [0, 1].  x0: initial (il, vc, vo); default is
-    the averaged DC steady state of d_0: il = io, vc = vo = d_0*U - RL*io.
-    workdir: keep netlist/raw/log there (default: a temporary directory).
-    max_step: ngspice max time step (default T/100).  edge: switch edge width
-    (keep it well above 5e-5*max_step, ngspice's minimum breakpoint spacing).
 
-    Returns dict of numpy arrays (length N = len(duty)): time (= k*T), duty,
-    vout_start, il_start, vc_start (values at t = k*T), vout_avg, il_avg
-    (averages over [k*T, (k+1)*T]).  Raises RuntimeError if ngspice is missing or fails.
+def mosfet_params(rds_on=10e-3, v_drive=10.0, mosfet=None):
+    """VDMOS model parameters with an on-resistance of ``rds_on`` at Vgs = ``v_drive``.
+
+    ngspice's VDMOS is the level-1 MOSFET plus series Rd and Rs; at small Vds
+    its on-resistance is Rd + Rs + 1/(Kp*(Vgs - Vto)).  Here Rd = 0.3*rds_on,
+    Rs = 0.1*rds_on and the channel takes the remaining 0.6*rds_on (the drain
+    current's Vds/(2*(Vgs - Vto)) curvature adds 0.2 % at 3 A).  ``mosfet``
+    overrides any parameter (then rds_on no longer holds if Kp/Rd/Rs/Vto are
+    among them).  Note VDMOS's own ``Rds`` is a drain-source *shunt* resistance.
     """
-    duty = np.asarray(duty, dtype=float).ravel()
+    if not rds_on > 0:
+        raise ValueError("rds_on must be > 0")
+    p = dict(MOSFET_DEFAULTS)
+    p.update(mosfet or {})
+    if not v_drive > p["Vto"] + 1.0:
+        raise ValueError(f"gate drive {v_drive} V too close to the threshold Vto = {p['Vto']} V")
+    base = dict(Vto=p["Vto"], Kp=1.0 / (0.6 * rds_on * (v_drive - p["Vto"])),
+                Rd=0.3 * rds_on, Rs=0.1 * rds_on)
+    base.update(p)
+    return base
+
+
+def diode_params(diode=None):
+    """Schottky model parameters: DIODE_DEFAULTS updated by ``diode``."""
+    p = dict(DIODE_DEFAULTS)
+    p.update(diode or {})
+    return p
+
+
+def diode_vf(i, params, temp=27.0):
+    """Forward voltage of a SPICE diode (Is, N, Rs) carrying ``i`` amperes."""
+    vt = 1.380649e-23 * (temp + 273.15) / 1.602176634e-19
+    return params["N"] * vt * math.log1p(i / params["Is"]) + i * params.get("Rs", 0.0)
+
+
+def _pwm_gate_intervals(duty, T, circuit, dead_time):
+    """Gate on-intervals [(a, b), ...] in absolute time, per gate.
+
+    The PWM signal is high on [k*T, k*T + d_k*T); touching intervals (d = 1)
+    merge, so a gate stays on across periods instead of toggling.  async: the
+    high side follows the PWM signal.  sync: dead-time insertion delays each
+    turn-on by dead_time; the low side is on between the PWM intervals (from
+    t = 0 if the PWM starts low, up to n*T after the last one).
+    """
     n = len(duty)
-    if n == 0 or not np.all((duty >= 0) & (duty <= 1)):
-        raise ValueError("duty must be a non-empty sequence of values in [0, 1]")
-    if min(L, C, Rc, Cl, fs, edge) <= 0 or RL < 0:
-        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL >= 0")
+    pwm = []
+    for k, d in enumerate(duty):
+        if d <= 0:
+            continue
+        a, b = k * T, k * T + d * T
+        if pwm and abs(pwm[-1][1] - a) <= 1e-9 * T:
+            pwm[-1][1] = b
+        else:
+            pwm.append([a, b])
+    if circuit == "async":
+        return {"hs": [tuple(iv) for iv in pwm]}
+    hs = [(a + dead_time, b) for a, b in pwm]
+    starts = [0.0] + [b + dead_time for _, b in pwm]
+    ends = [a for a, _ in pwm] + [n * T]
+    ls = list(zip(starts, ends))
+    return {"hs": hs, "ls": ls}
+
+
+def _gate_sources(intervals, amp, ramp, T, prefix, node):
+    """PULSE current sources into ``node`` whose sum is a gate waveform.
+
+    The waveform is ``amp`` on each interval (a, b), with linear ramps of
+    width ``ramp`` centred on a and b.  Intervals shorter than one ramp are
+    dropped (the pulse is swallowed).  Intervals are cut at the period
+    boundaries k*T (the falling ramp of one piece and the rising ramp of the
+    next overlap exactly and sum to ``amp``), and the pieces are grouped
+    greedily into PULSE trains of identical pieces spaced T apart (2T when a
+    piece plus its ramp is longer than T, which then alternates between two
+    sources): one source per run of equal duty, as in _switch_sources.
+    """
+    tol = 1e-9 * T
+    pieces = []
+    for a, b in intervals:
+        if b - a <= ramp * (1 + 1e-9):
+            continue
+        cuts = [a]
+        k = math.floor(a / T) + 1
+        while k * T < b - ramp:
+            if k * T > a + ramp:
+                cuts.append(k * T)
+            k += 1
+        cuts.append(b)
+        pieces += list(zip(cuts[:-1], cuts[1:]))
+    pieces.sort()
+    chains = []   # [start, width, spacing, count, tr, td]
+    active = []
+    for a, b in pieces:
+        w = b - a
+        td = a - ramp / 2
+        if td < 0:
+            # Cannot start before t = 0: ramp from 0 to the nominal ramp end.
+            chains.append([a, w, T, 1, a + ramp / 2, 0.0])
+            continue
+        active = [c for c in active if c[0] + c[3] * c[2] >= a - tol]
+        for c in active:
+            if abs(c[1] - w) <= tol and abs(c[0] + c[3] * c[2] - a) <= 1e-6 * T:
+                c[3] += 1
+                break
+        else:
+            spacing = T * max(1, math.ceil((w + ramp) / T - 1e-9))
+            c = [a, w, spacing, 1, ramp, td]
+            chains.append(c)
+            active.append(c)
+    lines = []
+    for i, (a, w, spacing, count, tr, td) in enumerate(chains):
+        pw = w - ramp
+        # PULSE(V1 V2 TD TR TF PW PER NP)
+        lines.append(f"I{prefix}{i} 0 {node} PULSE(0 {_num(amp)} {_num(td)} {_num(tr)} {_num(ramp)} "
+                     f"{_num(pw)} {_num(spacing)} {count})")
+    if not lines:
+        # ngspice needs the node to exist; an all-off gate is a zero source.
+        lines.append(f"I{prefix}0 0 {node} DC 0")
+    return "\n".join(lines)
+
+
+def dc_point(circuit, d, *, L=3.3e-6, RL=0.1, fs=330e3, U=12.0, io=1.0, dead_time=30e-9,
+             rds_on=10e-3, diode=None, mosfet=None):
+    """Approximate periodic steady state at constant duty d, at the period start.
+
+    Returns (il, vc, vo, vsw): inductor current at the period start (ripple
+    valley), capacitor voltages (the mean output voltage), switch-node
+    voltage.  ideal: u_sw averages d*U.  sync: plus the Rds_on drop and the
+    dead-time loss (-(dead_time/T)*(U + 2*Vbd) for il > 0 in both dead times).
+    async: CCM with the diode drop Vf(io), or, when io is below half the
+    ripple, DCM (il = 0 at the period start; constant-Vf volt-second balance).
+    Good to a few mV-tens of mV: meant as a start point before a warm-up.
+    """
+    T = 1.0 / fs
+    if circuit == "ideal":
+        vo = d * U - RL * io
+        return io - (U - vo) * d * T / (2 * L), vo, vo, 0.0
+    if circuit == "sync":
+        body = mosfet_params(rds_on, mosfet=mosfet)
+        vbd = diode_vf(max(abs(io), 0.1), dict(Is=body["Is"], N=body["N"], Rs=body["Rb"]))
+        loss = dead_time / T * (U + 2 * vbd) if io > 0 else 0.0
+        vo = d * U - (RL + rds_on) * io - loss
+        il = io - (U - vo) * d * T / (2 * L)
+        return il, vo, vo, -vbd if il > 0 else U
+    dp = diode_params(diode)
+    vf = diode_vf(max(io, 1e-3), dp)
+    vo = d * U - (1 - d) * vf - (RL + d * rds_on) * io
+    ripple = (U - vo) * d * T / L
+    if io >= ripple / 2 or d >= 1:
+        return io - ripple / 2, vo, vo, -vf
+    # DCM: on-time d*T, current peak ip = (U - vo)*d*T/L, fall time
+    # t2 = ip*L/(vo + vf); the period average ip*(d*T + t2)/(2T) must be io.
+    lo, hi = 0.0, U
+    for _ in range(100):
+        vo = (lo + hi) / 2
+        ip = (U - vo) * d * T / L
+        vf = diode_vf(ip / 2, dp)
+        avg = ip * (d * T + ip * L / (vo + vf)) / (2 * T)
+        lo, hi = (vo, hi) if avg > io else (lo, vo)
+    return 0.0, vo, vo, vo
+
+
+def _run_ngspice(netlist, workdir, n, T):
+    """Run a netlist in workdir (a temporary directory if None) -> raw vectors."""
     exe = shutil.which("ngspice")
     if exe is None:
         raise RuntimeError("ngspice not found on PATH")
-    T = 1.0 / fs
-    if max_step is None:
-        max_step = T / DEFAULT_STEPS_PER_PERIOD
-    if x0 is None:
-        v0 = duty[0] * U - RL * io
-        x0 = (io, v0, v0)
-    il0, vc0, vo0 = x0
-
-    with open(TEMPLATE) as f:
-        template = string.Template(f.read())
     tmp = None
     if workdir is None:
         tmp = tempfile.TemporaryDirectory(prefix="buck_spice_")
@@ -251,12 +391,7 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         if os.path.exists(raw):
             os.remove(raw)
         with open(cir, "w") as f:
-            f.write(template.substitute(
-                switch_sources=_switch_sources(duty, T, U, edge),
-                L=_num(L), RL=_num(RL), C=_num(C), Rc=_num(Rc), Cl=_num(Cl), io=_num(io),
-                il0=_num(il0), vc0=_num(vc0), vo0=_num(vo0),
-                max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw",
-                **{k: (v if isinstance(v, str) else _num(v)) for k, v in SOLVER_OPTIONS.items()}))
+            f.write(netlist)
         proc = subprocess.run([exe, "-b", cir], cwd=workdir, capture_output=True, text=True)
         log = proc.stdout + proc.stderr
         with open(os.path.join(workdir, "ngspice.log"), "w") as f:
@@ -270,17 +405,122 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     if vec is None or abs(vec["time"][-1] - n * T) > 1e-6 * T:
         tail = "\n".join((proc.stderr.strip() or log.strip()).splitlines()[-20:])
         raise RuntimeError(f"ngspice failed (exit {proc.returncode}); output tail:\n{tail}")
+    return vec
+
+
+def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=12.0,
+             io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12, circuit="ideal",
+             dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
+             diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None):
+    """Simulate a buck converter in ngspice for len(duty) periods.
+
+    duty: per-period duty d_k in [0, 1].  circuit: "ideal" (ideal switch
+    node; the default, unchanged), "sync" (VDMOS high and low side, body
+    diodes, dead time) or "async" (VDMOS high side, Schottky diode).
+    x0: initial (il, vc, vo); default: ideal -- the averaged DC steady state
+    of d_0 (il = io, vc = vo = d_0*U - RL*io); sync/async -- dc_point() (the
+    ripple valley and the approximate mean output, DCM included).
+    warmup: periods simulated at duty[0] before the sequence and dropped
+    (time 0 of the result is the end of the warm-up).
+    workdir: keep netlist/raw/log there (default: a temporary directory).
+    max_step: ngspice max time step (default T/100).  edge: ideal switch edge
+    width (keep it well above 5e-5*max_step, ngspice's minimum breakpoint
+    spacing).
+
+    Real circuits only: dead_time (sync: both gates off before each turn-on),
+    rds_on (MOSFET on-resistance at Vgs = v_drive, see mosfet_params),
+    gate_rise (gate ramp width), v_drive (gate drive voltage), mosfet / diode
+    (dicts overriding MOSFET_DEFAULTS / DIODE_DEFAULTS), snubber (async
+    switch-node RC (R, C), None to omit), solver (dict overriding
+    REAL_SOLVER_OPTIONS).
+
+    Returns dict of numpy arrays (length N = len(duty)): time (= k*T), duty,
+    vout_start, il_start, vc_start (values at t = k*T), vout_avg, il_avg
+    (averages over [k*T, (k+1)*T]); sync/async also vsw_avg (switch node).
+    Raises RuntimeError if ngspice is missing or fails.
+    """
+    if circuit not in CIRCUITS:
+        raise ValueError(f"circuit must be one of {CIRCUITS}, not {circuit!r}")
+    duty = np.asarray(duty, dtype=float).ravel()
+    warmup = int(warmup)
+    if len(duty) == 0 or not np.all((duty >= 0) & (duty <= 1)):
+        raise ValueError("duty must be a non-empty sequence of values in [0, 1]")
+    if warmup < 0:
+        raise ValueError("warmup must be >= 0")
+    if min(L, C, Rc, Cl, fs, edge) <= 0 or RL < 0:
+        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL >= 0")
+    n_out = len(duty)
+    if warmup:
+        duty = np.concatenate((np.full(warmup, duty[0]), duty))
+    n = len(duty)
+    T = 1.0 / fs
+    if max_step is None:
+        max_step = T / DEFAULT_STEPS_PER_PERIOD
+    real = circuit != "ideal"
+    vsw0 = 0.0
+    if x0 is None:
+        if real:
+            il0, vc0, vo0, vsw0 = dc_point(circuit, duty[0], L=L, RL=RL, fs=fs, U=U, io=io,
+                                           dead_time=dead_time, rds_on=rds_on, diode=diode,
+                                           mosfet=mosfet)
+        else:
+            v0 = duty[0] * U - RL * io
+            il0, vc0, vo0 = io, v0, v0
+    else:
+        il0, vc0, vo0 = x0
+        if real:
+            vsw0 = vo0 if il0 == 0 else (-0.5 if il0 > 0 else U)
+
+    with open(TEMPLATES[circuit]) as f:
+        template = string.Template(f.read())
+    common = dict(L=_num(L), RL=_num(RL), C=_num(C), Rc=_num(Rc), Cl=_num(Cl), io=_num(io),
+                  il0=_num(il0), vc0=_num(vc0), vo0=_num(vo0),
+                  max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw")
+    if not real:
+        netlist = template.substitute(
+            switch_sources=_switch_sources(duty, T, U, edge), **common,
+            **{k: (v if isinstance(v, str) else _num(v)) for k, v in SOLVER_OPTIONS.items()})
+    else:
+        if not (gate_rise > 0 and dead_time >= 0 and v_drive > 0):
+            raise ValueError("gate_rise and v_drive must be > 0, dead_time >= 0")
+        opts = dict(REAL_SOLVER_OPTIONS)
+        opts.update(solver or {})
+        gates = _pwm_gate_intervals(duty, T, circuit, dead_time)
+        fields = dict(common, U=_num(U), vsw0=_num(vsw0),
+                      hs_sources=_gate_sources(gates["hs"], v_drive, gate_rise, T, "gh", "xh"),
+                      mosfet_model=_model_card("NMOS_SW", "VDMOS",
+                                               mosfet_params(rds_on, v_drive, mosfet)),
+                      write_vectors="v(out) v(vc) i(vam) v(sw)",
+                      **{k: (v if isinstance(v, str) else _num(v)) for k, v in opts.items()})
+        if circuit == "sync":
+            fields["ls_sources"] = _gate_sources(gates["ls"], v_drive, gate_rise, T, "gl", "xl")
+        else:
+            fields["diode_model"] = _model_card("DSCHOTTKY", "D", diode_params(diode))
+            if snubber and snubber[0] > 0 and snubber[1] > 0:
+                fields["snubber"] = (f"Rsn   sw  nsn  {_num(snubber[0])}\n"
+                                     f"Csn   nsn 0    {_num(snubber[1])}")
+            else:
+                fields["snubber"] = "* (no snubber)"
+        netlist = template.substitute(fields)
+    vec = _run_ngspice(netlist, workdir, n, T)
     t = vec["time"]
 
     out = {"time": np.arange(n) * T, "duty": duty}
-    for key, name in (("vout", "v(out)"), ("il", "i(vam)"), ("vc", "v(vc)")):
+    probes = [("vout", "v(out)"), ("il", "i(vam)"), ("vc", "v(vc)")]
+    if real:
+        probes.append(("vsw", "v(sw)"))
+    for key, name in probes:
         start, avg = _period_reduce(t, vec[name], T, n)
-        out[key + "_start"] = start
+        if key != "vsw":
+            out[key + "_start"] = start
         if key != "vc":
             out[key + "_avg"] = avg
     # The t = 0 sample is the initial condition by definition (ngspice's stored
     # uic point can be off by float noise, seen ~2e-6 A on il).
     out["il_start"][0], out["vc_start"][0], out["vout_start"][0] = il0, vc0, vo0
+    if warmup:
+        out = {k: v[warmup:] for k, v in out.items()}
+        out["time"] = np.arange(n_out) * T
     return out
 
 
