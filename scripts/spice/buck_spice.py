@@ -75,6 +75,7 @@ SOLVER_OPTIONS = dict(method="trap", reltol=1e-6, abstol=1e-12, vntol=1e-9, chgt
 # Solver settings of the real (nonlinear) circuits; see simulate() for the
 # accuracy checks behind them.  rshunt (1e12 ohm from every node to ground)
 # keeps the floating gate-drive nodes well posed.
+REAL_STEPS_PER_PERIOD = {"sync": 100, "async": 400}
 REAL_SOLVER_OPTIONS = dict(method="trap", reltol=1e-4, abstol=1e-9, vntol=1e-6, chgtol=1e-14,
                            rshunt=1e12, itl4=50)
 
@@ -278,6 +279,10 @@ def _pwm_gate_intervals(duty, T, circuit, dead_time):
     return {"hs": hs, "ls": ls}
 
 
+PHANTOM_MODE = "none"
+PHANTOM_SHIFT = 0.0
+
+
 def _gate_sources(intervals, amp, ramp, T, prefix, node):
     """PULSE current sources into ``node`` whose sum is a gate waveform.
 
@@ -320,6 +325,14 @@ def _gate_sources(intervals, amp, ramp, T, prefix, node):
                 break
         else:
             spacing = T * max(1, math.ceil((w + ramp) / T - 1e-9))
+            for o in chains:
+                phantom = (o[2] * (o[3] - 1) + o[2]) + o[5]
+                if o[5] > 0 and abs(phantom - td) <= 1e-6 * T:
+                    if PHANTOM_MODE == "exact":
+                        td = phantom
+                    elif PHANTOM_MODE == "shift":
+                        td = phantom + PHANTOM_SHIFT
+                    break
             c = [a, w, spacing, 1, ramp, td]
             chains.append(c)
             active.append(c)
@@ -454,9 +467,9 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         duty = np.concatenate((np.full(warmup, duty[0]), duty))
     n = len(duty)
     T = 1.0 / fs
-    if max_step is None:
-        max_step = T / DEFAULT_STEPS_PER_PERIOD
     real = circuit != "ideal"
+    if max_step is None:
+        max_step = T / (REAL_STEPS_PER_PERIOD[circuit] if real else DEFAULT_STEPS_PER_PERIOD)
     vsw0 = 0.0
     if x0 is None:
         if real:
@@ -524,9 +537,63 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     return out
 
 
+def _ngspice_version():
+    """"ngspice-39" from `ngspice -v` (or "ngspice" if it cannot be told)."""
+    try:
+        out = subprocess.run(["ngspice", "-v"], capture_output=True, text=True, timeout=30).stdout
+    except (OSError, subprocess.SubprocessError):
+        return "ngspice"
+    m = re.search(r"ngspice-[\w.+-]+", out)
+    return m.group(0) if m else "ngspice"
+
+
+def truth(circuit, *, duty0=0.5, L=3.3e-6, RL=0.1, fs=330e3, U=12.0, io=1.0, dead_time=30e-9,
+          rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None, diode=None,
+          snubber=SNUBBER_DEFAULT):
+    """The non-ideal effects built into a circuit (names as in the design table).
+
+    For the --truth sidecar only: the data file itself must not tell the
+    diagnosis which effect is present.
+    """
+    t = {"circuit": circuit, "effects": {}}
+    if circuit == "ideal":
+        return t
+    T = 1.0 / fs
+    mp = mosfet_params(rds_on, v_drive, mosfet)
+    body = dict(Is=mp["Is"], N=mp["N"], Rs=mp["Rb"])
+    t["models"] = {"NMOS_SW": {"type": "VDMOS", **mp}}
+    t["gate_drive"] = {"v_drive": v_drive, "gate_rise": gate_rise}
+    eff = t["effects"]
+    if circuit == "sync":
+        eff["switch_resistance"] = {"rds_on_high": rds_on, "rds_on_low": rds_on,
+                                    "series_total": rds_on}
+        eff["dead_time"] = {"t_dead": dead_time, "edges": 2,
+                            "body_diode_vf_at_io": diode_vf(max(abs(io), 1e-3), body),
+                            "duty_loss_approx": dead_time / T}
+    else:
+        dp = diode_params(diode)
+        t["models"]["DSCHOTTKY"] = {"type": "D", **dp}
+        t["snubber"] = list(snubber) if snubber else None
+        il0, _, vo, _ = dc_point("async", duty0, L=L, RL=RL, fs=fs, U=U, io=io, rds_on=rds_on,
+                                 diode=diode)
+        eff["switch_resistance"] = {"rds_on_high": rds_on, "series_total_at_duty": duty0 * rds_on}
+        eff["diode_drop"] = {"vf_at_io": diode_vf(max(io, 1e-3), dp),
+                             "vf_at_1A": diode_vf(1.0, dp), "vf_at_3A": diode_vf(3.0, dp)}
+        # CCM/DCM boundary at duty0: io = ripple/2 with the CCM output voltage.
+        vf = diode_vf(max(io, 1e-3), dp)
+        v_ccm = duty0 * U - (1 - duty0) * vf - (RL + duty0 * rds_on) * io
+        boundary = (U - v_ccm) * duty0 * T / (2 * L)
+        eff["dcm"] = {"active_at_duty0": bool(io < boundary), "duty0": duty0,
+                      "io_boundary_at_duty0": boundary, "vout_estimate_at_duty0": vo}
+    return t
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--circuit", choices=CIRCUITS, default="ideal")
     p.add_argument("--periods", type=int, default=3001)
+    p.add_argument("--warmup", type=int, default=0,
+                   help="periods simulated at the first duty before the data and dropped")
     p.add_argument("--seed", type=int, default=1, help="PRBS LFSR seed")
     p.add_argument("--bit-periods", type=int, default=8)
     p.add_argument("--duty-file", help="duty sequence, one value per line (overrides PRBS)")
@@ -538,9 +605,13 @@ def main(argv=None):
     p.add_argument("--Rc", type=float, default=0.1)
     p.add_argument("--fs", type=float, default=330e3)
     p.add_argument("--U", type=float, default=12.0)
+    p.add_argument("--dead-time", type=float, default=30e-9, help="sync only [s]")
+    p.add_argument("--rds-on", type=float, default=10e-3, help="MOSFET on-resistance [ohm]")
+    p.add_argument("--gate-rise", type=float, default=5e-9, help="gate ramp width [s]")
     p.add_argument("--max-step", type=float, default=None)
     p.add_argument("--workdir", help="keep netlist, raw file and log here")
     p.add_argument("--out", default="-", help="CSV output file ('-' = stdout)")
+    p.add_argument("--truth", help="write the circuit's non-ideal effects (JSON sidecar) here")
     p.add_argument("--time", action="store_true", help="print ngspice wall time to stderr")
     a = p.parse_args(argv)
 
@@ -549,18 +620,25 @@ def main(argv=None):
     else:
         duty = prbs_duty(a.periods, a.bit_periods, seed=a.seed)
     params = dict(L=a.L, RL=a.RL, C=a.C, Rc=a.Rc, Cl=a.cl, fs=a.fs, U=a.U, io=a.io)
+    real = dict(dead_time=a.dead_time, rds_on=a.rds_on, gate_rise=a.gate_rise)
     t0 = _time.perf_counter()
-    r = simulate(duty, max_step=a.max_step, workdir=a.workdir, **params)
+    r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit,
+                 warmup=a.warmup, **real, **params)
     if a.time:
         print(f"wall time (ngspice + parsing): {_time.perf_counter() - t0:.3f} s "
-              f"for {len(duty)} periods", file=sys.stderr)
+              f"for {len(duty)} + {a.warmup} warm-up periods ({a.circuit})", file=sys.stderr)
 
     n = len(duty)
     cols = [("time", r["time"]), ("duty", r["duty"]), ("vin", np.full(n, a.U)),
             ("io", np.full(n, a.io)), ("vout", r["vout_start"]), ("il", r["il_start"]),
             ("vc", r["vc_start"]), ("vout_avg", r["vout_avg"]), ("il_avg", r["il_avg"])]
     lines = [f"# {k} = {params[k]!r}" for k in ("fs", "L", "RL", "C", "Rc", "Cl", "U", "io")]
-    lines.append("# source = ngspice ideal switch")
+    lines.append(f"# circuit = {a.circuit}")
+    if a.circuit == "ideal":
+        lines.append("# source = ngspice ideal switch")
+    else:
+        kind = {"sync": "MOSFET synchronous buck", "async": "MOSFET + Schottky diode buck"}
+        lines.append(f"# source = {_ngspice_version()} {kind[a.circuit]}")
     lines.append(",".join(c for c, _ in cols))
     data = np.column_stack([v for _, v in cols])
     lines += [",".join(repr(float(x)) for x in row) for row in data]
@@ -570,6 +648,12 @@ def main(argv=None):
     else:
         with open(a.out, "w") as f:
             f.write(text)
+    if a.truth:
+        t = truth(a.circuit, duty0=float(duty[0]), L=a.L, RL=a.RL, fs=a.fs, U=a.U, io=a.io, **real)
+        t["warmup"] = a.warmup
+        with open(a.truth, "w") as f:
+            json.dump(t, f, indent=2)
+            f.write("\n")
 
 
 if __name__ == "__main__":

@@ -205,7 +205,7 @@ impl Instance {
         };
         let kind = match var.ty {
             Type::Real { .. } => "Real",
-            Type::Mode { .. } => "Integer",
+            Type::Integer { .. } => "Integer",
             Type::Boolean { .. } => "Boolean",
         };
         if kind != want {

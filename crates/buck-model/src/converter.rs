@@ -2,6 +2,7 @@
 use nalgebra::{SMatrix, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::digital::{Control, Digital};
 use crate::variables::{self, Type, VarId};
 use crate::{Mode, ModelError, Params};
 
@@ -14,11 +15,15 @@ pub struct Inputs {
     pub io: f64,
     /// Input voltage [V].
     pub vin: f64,
+    /// Output voltage reference of the controller [V] (closed loop).
+    pub vref: f64,
+    /// Added to the controller's duty (closed loop).
+    pub dither: f64,
 }
 
 impl Default for Inputs {
     fn default() -> Self {
-        Self { duty: 0.5, io: 1.0, vin: 12.0 }
+        Self { duty: 0.5, io: 1.0, vin: 12.0, vref: 5.0, dither: 0.0 }
     }
 }
 
@@ -46,6 +51,12 @@ pub struct Outputs {
     pub vout_avg: f64,
     /// Exact average of `il` over the last completed switching period [A].
     pub il_avg: f64,
+    /// Duty that drove the switch in the last latched period.
+    pub duty_applied: f64,
+    /// ADC reading of `vout` at the last period start [V].
+    pub vout_adc: f64,
+    /// ADC reading of `il` at the last period start [A].
+    pub il_adc: f64,
 }
 
 /// Relative tolerance (of the period) within which a step end snaps onto a switching event, so
@@ -98,6 +109,10 @@ pub struct Converter {
     at_period_start: bool,
     /// Averages `[il, vc, vo]` over the last completed period.
     last_average: Vector3<f64>,
+    /// ADC, controller, delay line, DPWM.
+    digital: Digital,
+    /// Index of the current period.
+    period_index: u64,
     time: f64,
     #[serde(skip)]
     cache: Vec<Piece>,
@@ -119,6 +134,8 @@ impl Converter {
             latched_duty: 0.0,
             at_period_start: true,
             last_average: Vector3::zeros(),
+            digital: Digital::default(),
+            period_index: 0,
             time: 0.0,
             cache: Vec::with_capacity(CACHE_SLOTS),
             next_slot: 0,
@@ -133,7 +150,7 @@ impl Converter {
         for var in variables::VARIABLES {
             let start = match var.ty {
                 Type::Real { start, .. } => start,
-                Type::Mode { start } => Some(f64::from(start)),
+                Type::Integer { start, .. } => Some(f64::from(start)),
                 Type::Boolean { start } => Some(f64::from(u8::from(start))),
             };
             if let Some(value) = start {
@@ -174,7 +191,14 @@ impl Converter {
     pub fn set_inputs(&mut self, inputs: Inputs) -> Result<(), ModelError> {
         self.set(VarId::Duty, inputs.duty)?;
         self.set(VarId::Io, inputs.io)?;
-        self.set(VarId::Vin, inputs.vin)
+        self.set(VarId::Vin, inputs.vin)?;
+        self.set(VarId::Vref, inputs.vref)?;
+        self.set(VarId::Dither, inputs.dither)
+    }
+
+    /// The digital side (ADC, controller, delay, DPWM).
+    pub fn digital(&self) -> &Digital {
+        &self.digital
     }
 
     /// Circuit state.
@@ -193,14 +217,19 @@ impl Converter {
     }
 
     /// Starts a new run at a period start: from the averaged DC operating point of the current
-    /// inputs when `start_at_steady_state` is set (the default), from zero otherwise.
+    /// inputs when `start_at_steady_state` is set (the default), from zero otherwise. In closed
+    /// loop the operating point is the one where `vout = vref`, and the controller starts there.
     pub fn initialize(&mut self) {
-        let x0 = if self.start_at_steady_state {
-            self.params.steady_state(self.inputs.duty, self.inputs.vin, self.inputs.io)
-        } else {
-            [0.0; 3]
+        let Inputs { duty, io, vin, vref, .. } = self.inputs;
+        let d0 = match self.digital.control {
+            Control::Open => duty,
+            Control::Closed if vin > 0.0 => ((vref + self.params.rl * io) / vin).clamp(0.0, 1.0),
+            Control::Closed => 0.0,
         };
+        let x0 = if self.start_at_steady_state { self.params.steady_state(d0, vin, io) } else { [0.0; 3] };
         self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2] });
+        self.period_index = 0;
+        self.digital.restart(d0, x0[2], x0[0]);
     }
 
     /// Current outputs.
@@ -211,30 +240,56 @@ impl Converter {
             vc: self.x[1],
             vout_avg: self.last_average[2],
             il_avg: self.last_average[0],
+            duty_applied: self.digital.applied(),
+            vout_adc: self.digital.reading().0,
+            il_adc: self.digital.reading().1,
         }
     }
 
-    /// Reads a real variable of the table.
+    /// Reads a variable of the table (integers and Booleans as exact `f64`).
     pub fn get_real(&self, id: VarId) -> f64 {
         let y = self.outputs();
         let p = &self.params;
+        let d = &self.digital;
         match id {
             VarId::Duty => self.inputs.duty,
             VarId::Io => self.inputs.io,
             VarId::Vin => self.inputs.vin,
+            VarId::Vref => self.inputs.vref,
+            VarId::Dither => self.inputs.dither,
             VarId::Vout => y.vout,
             VarId::Il => y.il,
             VarId::Vc => y.vc,
             VarId::VoutAvg => y.vout_avg,
             VarId::IlAvg => y.il_avg,
+            VarId::DutyApplied => y.duty_applied,
+            VarId::VoutAdc => y.vout_adc,
+            VarId::IlAdc => y.il_adc,
             VarId::L => p.l,
             VarId::Rl => p.rl,
             VarId::C => p.c,
             VarId::Rc => p.rc,
             VarId::Cl => p.cl,
             VarId::Fs => p.fs,
-            VarId::Mode => f64::from(self.mode_item()),
+            VarId::Mode => f64::from(match self.mode {
+                Mode::Averaged => 1,
+                Mode::Switched => 2,
+            }),
             VarId::SteadyStart => f64::from(u8::from(self.start_at_steady_state)),
+            VarId::Control => f64::from(match d.control {
+                Control::Open => 1,
+                Control::Closed => 2,
+            }),
+            VarId::Kp => d.kp,
+            VarId::Ki => d.ki,
+            VarId::Kd => d.kd,
+            VarId::Delay => f64::from(d.delay),
+            VarId::AdcBits => f64::from(d.adc_bits),
+            VarId::AdcVfs => d.adc_vfs,
+            VarId::AdcIfs => d.adc_ifs,
+            VarId::AdcNoise => d.adc_noise,
+            VarId::NoiseSeed => d.noise_seed as f64,
+            VarId::DpwmBits => f64::from(d.dpwm_bits),
         }
     }
 
@@ -244,53 +299,51 @@ impl Converter {
     /// from the new operating point.
     pub fn set(&mut self, id: VarId, value: f64) -> Result<(), ModelError> {
         let var = &variables::VARIABLES[variables::vr(id) as usize];
-        let value = match var.ty {
-            Type::Real { .. } => var.check_real(value)?,
-            Type::Mode { .. } => {
-                let item = self.check_item(var.name, value)?;
-                self.mode = if item == 1 { Mode::Averaged } else { Mode::Switched };
-                return Ok(());
+        match var.ty {
+            Type::Real { .. } => {
+                let value = var.check_real(value)?;
+                let p = &mut self.params;
+                let d = &mut self.digital;
+                match id {
+                    VarId::Duty => self.inputs.duty = value,
+                    VarId::Io => self.inputs.io = value,
+                    VarId::Vin => self.inputs.vin = value,
+                    VarId::Vref => self.inputs.vref = value,
+                    VarId::Dither => self.inputs.dither = value,
+                    VarId::L => p.l = value,
+                    VarId::Rl => p.rl = value,
+                    VarId::C => p.c = value,
+                    VarId::Rc => p.rc = value,
+                    VarId::Cl => p.cl = value,
+                    VarId::Fs => p.fs = value,
+                    VarId::Kp => d.kp = value,
+                    VarId::Ki => d.ki = value,
+                    VarId::Kd => d.kd = value,
+                    VarId::AdcVfs => d.adc_vfs = value,
+                    VarId::AdcIfs => d.adc_ifs = value,
+                    VarId::AdcNoise => d.adc_noise = value,
+                    _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
+                }
+                if matches!(id, VarId::L | VarId::Rl | VarId::C | VarId::Rc | VarId::Cl | VarId::Fs) {
+                    self.cache.clear();
+                }
             }
-            Type::Boolean { .. } => {
-                self.start_at_steady_state = value != 0.0;
-                return Ok(());
+            Type::Integer { .. } => {
+                let v = var.check_integer(value)?;
+                let d = &mut self.digital;
+                match id {
+                    VarId::Mode => self.mode = if v == 1 { Mode::Averaged } else { Mode::Switched },
+                    VarId::Control => d.control = if v == 1 { Control::Open } else { Control::Closed },
+                    VarId::Delay => d.delay = v.unsigned_abs(),
+                    VarId::AdcBits => d.adc_bits = v.unsigned_abs(),
+                    VarId::NoiseSeed => d.noise_seed = u64::from(v.unsigned_abs()),
+                    VarId::DpwmBits => d.dpwm_bits = v.unsigned_abs(),
+                    _ => return Err(ModelError::NotSettable { name: var.name, when: "as an integer" }),
+                }
             }
-        };
-        let p = &mut self.params;
-        match id {
-            VarId::Duty => self.inputs.duty = value,
-            VarId::Io => self.inputs.io = value,
-            VarId::Vin => self.inputs.vin = value,
-            VarId::L => p.l = value,
-            VarId::Rl => p.rl = value,
-            VarId::C => p.c = value,
-            VarId::Rc => p.rc = value,
-            VarId::Cl => p.cl = value,
-            VarId::Fs => p.fs = value,
-            _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
-        }
-        if var.causality == variables::Causality::Parameter {
-            self.cache.clear();
+            Type::Boolean { .. } => self.start_at_steady_state = value != 0.0,
         }
         Ok(())
-    }
-
-    fn mode_item(&self) -> i32 {
-        match self.mode {
-            Mode::Averaged => 1,
-            Mode::Switched => 2,
-        }
-    }
-
-    fn check_item(&self, name: &'static str, value: f64) -> Result<i32, ModelError> {
-        let n = variables::MODE_ITEMS.len();
-        if value.fract() == 0.0 && value >= 1.0 && value <= n as f64 {
-            Ok(value as i32)
-        } else {
-            let items: Vec<String> =
-                variables::MODE_ITEMS.iter().enumerate().map(|(i, (s, _))| format!("{} = {s}", i + 1)).collect();
-            Err(ModelError::OutOfRange { name, value, range: format!("one of {}", items.join(", ")) })
-        }
     }
 
     /// Advances by `h` seconds, crossing every switching event exactly.
@@ -303,7 +356,8 @@ impl Converter {
         let mut remaining = h;
         loop {
             if self.at_period_start {
-                self.latched_duty = self.inputs.duty;
+                let Inputs { duty, dither, vref, .. } = self.inputs;
+                self.latched_duty = self.digital.latch(duty, dither, vref);
                 self.at_period_start = false;
             }
             let switch_off = match self.mode {
@@ -313,7 +367,7 @@ impl Converter {
             let (event, u_sw) = if self.phase < switch_off {
                 let u = match self.mode {
                     Mode::Switched => self.inputs.vin,
-                    Mode::Averaged => self.inputs.duty * self.inputs.vin,
+                    Mode::Averaged => self.latched_duty * self.inputs.vin,
                 };
                 (switch_off, u)
             } else {
@@ -334,6 +388,8 @@ impl Converter {
                 self.z = Vector3::zeros();
                 self.phase = 0.0;
                 self.at_period_start = true;
+                self.period_index += 1;
+                self.digital.sample(self.x[2], self.x[0], self.period_index);
             }
             // What is left after an event within the snap tolerance is the master's rounding
             // (e.g. a sum of steps of T), not time to simulate: the next period must latch the

@@ -20,7 +20,7 @@ fn averaged_settles_on_analytic_dc_point() {
     let p = Params::default();
     let mut conv = Converter::new(p, Mode::Averaged);
     conv.set(VarId::SteadyStart, 0.0).unwrap();
-    conv.set_inputs(Inputs { duty: 0.4, io: 2.0, vin: 12.0 }).unwrap();
+    conv.set_inputs(Inputs { duty: 0.4, io: 2.0, vin: 12.0, ..Inputs::default() }).unwrap();
     conv.initialize();
     assert_eq!(conv.outputs().vout, 0.0);
     for _ in 0..20_000 {
@@ -38,7 +38,7 @@ fn averaged_settles_on_analytic_dc_point() {
 fn switched_period_averages_obey_dc_balance() {
     for &(d, io, cl) in &[(0.4, 1.0, 0.2e-6), (0.6, 3.0, 10e-6), (0.5, -0.5, 100e-6), (1.0, 1.0, 1e-6), (0.0, 1.0, 1e-6)] {
         let p = Params { cl, ..Default::default() };
-        let conv = settled(Mode::Switched, p, Inputs { duty: d, io, vin: 12.0 }, 4000);
+        let conv = settled(Mode::Switched, p, Inputs { duty: d, io, vin: 12.0, ..Inputs::default() }, 4000);
         let y = conv.outputs();
         assert_relative_eq!(y.vout_avg, d * 12.0 - p.rl * io, epsilon = 1e-7);
         assert_relative_eq!(y.il_avg, io, epsilon = 1e-7);
@@ -53,7 +53,7 @@ fn switched_period_start_sample_is_the_ripple_valley() {
     for &d in &[0.4, 0.5, 0.6] {
         let p = Params::default();
         let io = 1.0;
-        let conv = settled(Mode::Switched, p, Inputs { duty: d, io, vin: 12.0 }, 4000);
+        let conv = settled(Mode::Switched, p, Inputs { duty: d, io, vin: 12.0, ..Inputs::default() }, 4000);
         let half_ripple = 12.0 * d * (1.0 - d) / (2.0 * p.l * p.fs);
         let valley = conv.outputs().il;
         assert_relative_eq!(valley, io - half_ripple, epsilon = 0.01 * half_ripple);

@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 
 mod converter;
+pub mod digital;
 mod error;
 pub mod lti;
 mod params;

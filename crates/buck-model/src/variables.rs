@@ -27,6 +27,22 @@ pub enum VarId {
     Fs,
     Mode,
     SteadyStart,
+    Vref,
+    Dither,
+    DutyApplied,
+    VoutAdc,
+    IlAdc,
+    Control,
+    Kp,
+    Ki,
+    Kd,
+    Delay,
+    AdcBits,
+    AdcVfs,
+    AdcIfs,
+    AdcNoise,
+    NoiseSeed,
+    DpwmBits,
 }
 
 /// FMI causality.
@@ -63,9 +79,14 @@ pub enum Type {
         /// Start value (`None` for calculated outputs).
         start: Option<f64>,
     },
-    /// The switch-node model as an FMI Integer: 1 + the index in [`MODE_ITEMS`]. An Integer
-    /// rather than an Enumeration because OSP libcosim ignores FMI 2.0 Enumerations.
-    Mode {
+    /// An integer with inclusive range. Choices such as `mode` are Integers rather than
+    /// Enumerations because OSP libcosim ignores FMI 2.0 Enumerations; their description
+    /// names the values.
+    Integer {
+        /// Smallest allowed value.
+        min: i32,
+        /// Largest allowed value.
+        max: i32,
         /// Start value.
         start: i32,
     },
@@ -114,12 +135,23 @@ const fn real(
     }
 }
 
+const fn integer(id: VarId, name: &'static str, range: (i32, i32), start: i32, description: &'static str) -> Variable {
+    Variable {
+        id,
+        name,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        ty: Type::Integer { min: range.0, max: range.1, start },
+        description,
+    }
+}
+
 const ANY: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
 use Causality::{Input, Output, Parameter};
 
 /// Every variable of the converter; the index is the FMI value reference.
 pub const VARIABLES: &[Variable] = &[
-    real(VarId::Duty, "duty", Input, "1", (0.0, 1.0), Some(0.5), "Duty cycle command (latched at each period start in switched mode)"),
+    real(VarId::Duty, "duty", Input, "1", (0.0, 1.0), Some(0.5), "Duty cycle command in open loop (latched at each period start)"),
     real(VarId::Io, "io", Input, "A", (-100.0, 100.0), Some(1.0), "Load current drawn from the output"),
     real(VarId::Vin, "vin", Input, "V", (0.0, 1000.0), Some(12.0), "Input voltage U"),
     real(VarId::Vout, "vout", Output, "V", ANY, None, "Output voltage (across Cl), instantaneous"),
@@ -133,14 +165,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::Rc, "Rc", Parameter, "Ohm", (1e-6, 10.0), Some(0.1), "Equivalent series resistance of C"),
     real(VarId::Cl, "Cl", Parameter, "F", (1e-9, 1.0), Some(10e-6), "Load capacitance"),
     real(VarId::Fs, "fs", Parameter, "Hz", (1.0, 1e8), Some(330e3), "Switching frequency"),
-    Variable {
-        id: VarId::Mode,
-        name: "mode",
-        causality: Parameter,
-        variability: Variability::Fixed,
-        ty: Type::Mode { start: 1 },
-        description: "Switch-node model: 1 = averaged, 2 = switched (exact PWM)",
-    },
+    integer(VarId::Mode, "mode", (1, 2), 1, "Switch-node model: 1 = averaged, 2 = switched (exact PWM)"),
     Variable {
         id: VarId::SteadyStart,
         name: "start_at_steady_state",
@@ -149,12 +174,22 @@ pub const VARIABLES: &[Variable] = &[
         ty: Type::Boolean { start: true },
         description: "Start from the averaged DC operating point of the initial inputs (else from zero)",
     },
-];
-
-/// Values of `mode`, in order (FMI values 1, 2, …): name and description.
-pub const MODE_ITEMS: &[(&str, &str)] = &[
-    ("averaged", "State-space average, switch node = duty*vin"),
-    ("switched", "Exact trailing-edge PWM, duty latched at each period start"),
+    real(VarId::Vref, "vref", Input, "V", (0.0, 1000.0), Some(5.0), "Output voltage reference of the controller (control = 2)"),
+    real(VarId::Dither, "duty_dither", Input, "1", (-1.0, 1.0), Some(0.0), "Added to the controller's duty, for excitation (control = 2)"),
+    real(VarId::DutyApplied, "duty_applied", Output, "1", ANY, None, "Duty that drove the switch in the last latched period"),
+    real(VarId::VoutAdc, "vout_adc", Output, "V", ANY, None, "ADC reading of vout at the last period start (noise, quantization)"),
+    real(VarId::IlAdc, "il_adc", Output, "A", ANY, None, "ADC reading of il at the last period start (quantization)"),
+    integer(VarId::Control, "control", (1, 2), 1, "Who sets the duty: 1 = open loop (duty input), 2 = closed loop (PID on vref - vout_adc, plus duty_dither)"),
+    real(VarId::Kp, "kp", Parameter, "1/V", (0.0, 100.0), Some(0.08), "Controller proportional gain"),
+    real(VarId::Ki, "ki", Parameter, "1/V", (0.0, 100.0), Some(0.008), "Controller integral gain per period"),
+    real(VarId::Kd, "kd", Parameter, "1/V", (0.0, 100.0), Some(0.3), "Controller derivative gain (on the error difference per period)"),
+    integer(VarId::Delay, "delay", (0, 8), 0, "Periods between a duty command and the switch (computation delay in closed loop)"),
+    integer(VarId::AdcBits, "adc_bits", (0, 24), 0, "ADC resolution on vout and il (0 = ideal)"),
+    real(VarId::AdcVfs, "adc_vfs", Parameter, "V", (1e-3, 1e4), Some(16.0), "ADC full scale of vout, unipolar"),
+    real(VarId::AdcIfs, "adc_ifs", Parameter, "A", (1e-3, 1e4), Some(32.0), "ADC full scale of il, bipolar"),
+    real(VarId::AdcNoise, "adc_noise", Parameter, "V", (0.0, 10.0), Some(0.0), "Standard deviation of white sensor noise on vout at the ADC"),
+    integer(VarId::NoiseSeed, "noise_seed", (0, i32::MAX), 1, "Seed of the ADC noise"),
+    integer(VarId::DpwmBits, "dpwm_bits", (0, 24), 0, "Resolution of the DPWM duty register (0 = ideal)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
@@ -166,6 +201,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("H", [1, 2, -2, -2]),
     ("F", [-1, -2, 4, 2]),
     ("Hz", [0, 0, -1, 0]),
+    ("1/V", [-1, -2, 3, 1]),
 ];
 
 impl Variable {
@@ -184,6 +220,21 @@ impl Variable {
                 range: format!("within [{}, {}]{}", engineering(min), engineering(max), if unit == "1" { String::new() } else { format!(" {unit}") }),
             }),
             _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Real" }),
+        }
+    }
+
+    /// Checks an integer value (given as `f64`) against the declared range.
+    pub fn check_integer(&self, value: f64) -> Result<i32, ModelError> {
+        match self.ty {
+            Type::Integer { min, max, .. } if value.fract() == 0.0 && value >= f64::from(min) && value <= f64::from(max) => {
+                Ok(value as i32)
+            }
+            Type::Integer { min, max, .. } => Err(ModelError::OutOfRange {
+                name: self.name,
+                value,
+                range: format!("an integer within [{min}, {max}]"),
+            }),
+            _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Integer" }),
         }
     }
 }
@@ -215,9 +266,6 @@ pub fn guid() -> String {
     let mut hash = Sha256::new();
     for v in VARIABLES {
         hash.update(format!("{}|{:?}|{:?}|{:?}|{:?}|{}\n", v.name, v.id, v.causality, v.variability, v.ty, v.description));
-    }
-    for (name, desc) in MODE_ITEMS.iter() {
-        hash.update(format!("{name}|{desc}\n"));
     }
     let h = hash.finalize();
     let hex: String = h.iter().take(16).map(|b| format!("{b:02x}")).collect();

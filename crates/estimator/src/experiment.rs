@@ -261,7 +261,7 @@ impl Plant for ModelPlant {
     }
 
     fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError> {
-        self.converter.set_inputs(buck_model::Inputs { duty, io, vin }).map_err(plant_err)?;
+        self.converter.set_inputs(buck_model::Inputs { duty, io, vin, ..buck_model::Inputs::default() }).map_err(plant_err)?;
         self.converter.initialize();
         Ok(())
     }
