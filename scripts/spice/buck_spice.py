@@ -279,20 +279,33 @@ def _pwm_gate_intervals(duty, T, circuit, dead_time):
     return {"hs": hs, "ls": ls}
 
 
-PHANTOM_MODE = "none"
-PHANTOM_SHIFT = 0.0
+# Breakpoint hygiene (ngspice 39, XSPICE build).  Every PULSE corner is a
+# transient breakpoint, and so is the start of the pulse after a train's last
+# one (NP reached) -- which is exactly where the next run's train starts.  Two
+# breakpoints that coincide up to rounding (or exactly) make ngspice take a
+# step of delmin = 1e-11*max_step, below the resolution of the time variable
+# once t > ~0.5 ms; the Newton iteration of the nonlinear devices then fails
+# and the run aborts with "timestep too small" (seen at random run
+# boundaries after ~700 periods).  So each train is delayed, if needed, by a
+# multiple of BREAK_SHIFT until all its corners are at least BREAK_MARGIN
+# from every corner already placed.  BREAK_MARGIN exceeds ngspice's
+# breakpoint merge distance (5e-5*max_step <= 1.5 ps for max_step <= T/100);
+# the delay only moves whole pulses (widths unchanged) by tens of ps against
+# 5 ns gate ramps.
+BREAK_SHIFT = 10e-12
+BREAK_MARGIN = 4e-12
 
 
-def _gate_sources(intervals, amp, ramp, T, prefix, node):
-    """PULSE current sources into ``node`` whose sum is a gate waveform.
+def _gate_chains(intervals, ramp, T):
+    """PULSE trains [start, width, spacing, count, tr, td] summing to a gate waveform.
 
-    The waveform is ``amp`` on each interval (a, b), with linear ramps of
-    width ``ramp`` centred on a and b.  Intervals shorter than one ramp are
+    The waveform is on over each interval (a, b), with linear ramps of width
+    ``ramp`` centred on a and b.  Intervals not longer than one ramp are
     dropped (the pulse is swallowed).  Intervals are cut at the period
     boundaries k*T (the falling ramp of one piece and the rising ramp of the
-    next overlap exactly and sum to ``amp``), and the pieces are grouped
-    greedily into PULSE trains of identical pieces spaced T apart (2T when a
-    piece plus its ramp is longer than T, which then alternates between two
+    next overlap and sum to the full drive), and the pieces are grouped
+    greedily into trains of identical pieces spaced T apart (2T when a piece
+    plus its ramp is longer than T, which then alternates between two
     sources): one source per run of equal duty, as in _switch_sources.
     """
     tol = 1e-9 * T
@@ -309,7 +322,7 @@ def _gate_sources(intervals, amp, ramp, T, prefix, node):
         cuts.append(b)
         pieces += list(zip(cuts[:-1], cuts[1:]))
     pieces.sort()
-    chains = []   # [start, width, spacing, count, tr, td]
+    chains = []
     active = []
     for a, b in pieces:
         w = b - a
@@ -325,27 +338,61 @@ def _gate_sources(intervals, amp, ramp, T, prefix, node):
                 break
         else:
             spacing = T * max(1, math.ceil((w + ramp) / T - 1e-9))
-            for o in chains:
-                phantom = (o[2] * (o[3] - 1) + o[2]) + o[5]
-                if o[5] > 0 and abs(phantom - td) <= 1e-6 * T:
-                    if PHANTOM_MODE == "exact":
-                        td = phantom
-                    elif PHANTOM_MODE == "shift":
-                        td = phantom + PHANTOM_SHIFT
-                    break
             c = [a, w, spacing, 1, ramp, td]
             chains.append(c)
             active.append(c)
+    return chains
+
+
+def _chain_corners(c, ramp):
+    """Breakpoints of a train: its corners plus the start (and rise end) of
+    the pulse after the last one, which ngspice 39 still schedules."""
+    _, w, spacing, count, tr, td = c
+    n = np.arange(count + 1) * spacing + td
+    pw = w - ramp
+    corners = [n, n[:-1] + tr, n[:-1] + tr + pw, n[:-1] + tr + pw + ramp, n[-1:] + tr]
+    return np.concatenate(corners)
+
+
+def _separate_breakpoints(chain_lists, ramp):
+    """Delay trains (in start order) until no two breakpoints nearly coincide."""
+    placed = np.empty(0)
+    for c in sorted((c for cl in chain_lists for c in cl), key=lambda c: c[5]):
+        base = _chain_corners(c, ramp)
+        shift = 0.0
+        if c[5] > 0:
+            for j in range(100):
+                shift = j * BREAK_SHIFT
+                x = np.sort(base + shift)
+                i = np.clip(np.searchsorted(placed, x), 1, max(len(placed) - 1, 1))
+                if len(placed) == 0 or np.min(np.minimum(np.abs(placed[i] - x),
+                                                         np.abs(placed[i - 1] - x))) >= BREAK_MARGIN:
+                    break
+            else:
+                raise RuntimeError("could not separate the gate-drive breakpoints")
+            c[5] += shift
+        placed = np.sort(np.concatenate((placed, base + shift)))
+
+
+def _chain_sources(chains, amp, ramp, prefix, node):
+    """SPICE lines: one PULSE current source into ``node`` per train."""
     lines = []
-    for i, (a, w, spacing, count, tr, td) in enumerate(chains):
-        pw = w - ramp
+    for i, (_, w, spacing, count, tr, td) in enumerate(chains):
         # PULSE(V1 V2 TD TR TF PW PER NP)
-        lines.append(f"I{prefix}{i} 0 {node} PULSE(0 {_num(amp)} {_num(td)} {_num(tr)} {_num(ramp)} "
-                     f"{_num(pw)} {_num(spacing)} {count})")
+        lines.append(f"I{prefix}{i} 0 {node} PULSE(0 {_num(amp)} {_num(td)} {_num(tr)} "
+                     f"{_num(ramp)} {_num(w - ramp)} {_num(spacing)} {count})")
     if not lines:
-        # ngspice needs the node to exist; an all-off gate is a zero source.
+        # The node must exist; an always-off gate is a zero source.
         lines.append(f"I{prefix}0 0 {node} DC 0")
     return "\n".join(lines)
+
+
+def _gate_sources(gates, amp, ramp, T):
+    """{"hs": lines, "ls": lines} for the gate intervals of _pwm_gate_intervals."""
+    chains = {g: _gate_chains(iv, ramp, T) for g, iv in gates.items()}
+    _separate_breakpoints(list(chains.values()), ramp)
+    nodes = {"hs": ("gh", "xh"), "ls": ("gl", "xl")}
+    return {g: _chain_sources(c, amp, ramp, *nodes[g]) for g, c in chains.items()}
 
 
 def dc_point(circuit, d, *, L=3.3e-6, RL=0.1, fs=330e3, U=12.0, io=1.0, dead_time=30e-9,
@@ -498,15 +545,15 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
             raise ValueError("gate_rise and v_drive must be > 0, dead_time >= 0")
         opts = dict(REAL_SOLVER_OPTIONS)
         opts.update(solver or {})
-        gates = _pwm_gate_intervals(duty, T, circuit, dead_time)
-        fields = dict(common, U=_num(U), vsw0=_num(vsw0),
-                      hs_sources=_gate_sources(gates["hs"], v_drive, gate_rise, T, "gh", "xh"),
+        sources = _gate_sources(_pwm_gate_intervals(duty, T, circuit, dead_time),
+                                v_drive, gate_rise, T)
+        fields = dict(common, U=_num(U), vsw0=_num(vsw0), hs_sources=sources["hs"],
                       mosfet_model=_model_card("NMOS_SW", "VDMOS",
                                                mosfet_params(rds_on, v_drive, mosfet)),
                       write_vectors="v(out) v(vc) i(vam) v(sw)",
                       **{k: (v if isinstance(v, str) else _num(v)) for k, v in opts.items()})
         if circuit == "sync":
-            fields["ls_sources"] = _gate_sources(gates["ls"], v_drive, gate_rise, T, "gl", "xl")
+            fields["ls_sources"] = sources["ls"]
         else:
             fields["diode_model"] = _model_card("DSCHOTTKY", "D", diode_params(diode))
             if snubber and snubber[0] > 0 and snubber[1] > 0:

@@ -58,24 +58,62 @@ fn record_from_fmu(args: &IdentifyArgs, path: &std::path::Path) -> Result<(DataS
             Ok((k, value))
         })
         .collect::<Result<Vec<_>>>()?;
-    let opts = FmuOptions { map, set, defaults: vec![("mode".into(), 2.0)], fs: None };
+    let mut defaults = vec![("mode".to_string(), 2.0)];
+    let mut default_map = Vec::new();
+    if args.closed_loop {
+        // Our FMU's closed loop; FMUs without these variables keep their own settings.
+        defaults.extend([("control".to_string(), 2.0), ("dpwm_bits".to_string(), 10.0)]);
+        default_map = [("duty", "duty_dither"), ("vout", "vout_adc"), ("il", "il_adc")]
+            .map(|(r, n)| (r.to_string(), n.to_string()))
+            .to_vec();
+    }
+    let opts = FmuOptions { map, set, defaults, default_map, fs: None };
     eprintln!("loading {}", path.display());
     let mut plant = FmuPlant::open(path, &opts)?;
     let validation = args.samples / 2;
+    let levels = excitation_levels(args);
     let exp = Experiment {
         samples: args.samples + validation,
-        prbs: Prbs { low: args.duty[0], high: args.duty[1], bit_periods: args.bit_periods, seed: args.seed, ..Prbs::default() },
+        prbs: Prbs { low: levels[0], high: levels[1], bit_periods: args.bit_periods, seed: args.seed, ..Prbs::default() },
         io: args.io,
         vin: args.vin,
         noise_vout: args.noise_vout,
         noise_il: args.noise_il,
+        noise_load: args.load_noise,
         noise_seed: args.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        record_applied_duty: args.closed_loop,
         ..Experiment::default()
     };
-    eprintln!("running {} switching periods (PRBS {}/{}, {} periods per bit)", exp.samples + exp.warmup, args.duty[0], args.duty[1], args.bit_periods);
+    eprintln!(
+        "running {} switching periods ({}, PRBS {}/{}, {} periods per bit)",
+        exp.samples + exp.warmup,
+        if args.closed_loop { "closed loop, dither" } else { "open loop, duty" },
+        levels[0],
+        levels[1],
+        args.bit_periods
+    );
     let start = Instant::now();
     let data = run_experiment(&mut plant, &exp)?;
     Ok((data, start.elapsed().as_secs_f64(), validation as f64 / exp.samples as f64))
+}
+
+/// PRBS levels: `--duty`, or the open/closed-loop defaults.
+fn excitation_levels(args: &IdentifyArgs) -> [f64; 2] {
+    match &args.duty {
+        Some(v) => [v[0], v[1]],
+        None if args.closed_loop => [-0.02, 0.02],
+        None => [0.4, 0.6],
+    }
+}
+
+/// What excited the plant and what was recorded, for the report.
+#[derive(Debug, Serialize)]
+struct Excitation {
+    closed_loop: bool,
+    signal: &'static str,
+    levels: [f64; 2],
+    recorded_duty: &'static str,
+    load_noise: f64,
 }
 
 /// Machine-readable result (the contract of `--json`).
@@ -95,6 +133,7 @@ struct Output {
     nominal: BTreeMap<&'static str, f64>,
     assumed: Vec<String>,
     source: String,
+    excitation: Option<Excitation>,
     candidates: Vec<CandidateOut>,
 }
 
@@ -189,16 +228,40 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         outputs: if args.with_il { vec![Signal::Vout, Signal::Il] } else { vec![Signal::Vout] },
         free: vec![Free::Cl],
         noise: match args.noise_model {
-            NoiseChoice::Oe => NoiseModel::OutputError,
-            NoiseChoice::Kalman => NoiseModel::Innovations,
+            Some(NoiseChoice::Oe) => NoiseModel::OutputError,
+            Some(NoiseChoice::Kalman) => NoiseModel::Innovations,
+            None if args.closed_loop => NoiseModel::Innovations,
+            None => NoiseModel::OutputError,
         },
         cl_guess: args.cl_guess,
         holdout,
     };
     eprintln!("fitting {} samples", data.len());
     let id = identify(&data, &nominal, &opts)?;
+    let excitation = args.fmu.as_ref().map(|_| {
+        let levels = excitation_levels(args);
+        Excitation {
+            closed_loop: args.closed_loop,
+            signal: if args.closed_loop { "duty_dither" } else { "duty" },
+            levels,
+            recorded_duty: if args.closed_loop { "duty_applied" } else { "duty" },
+            load_noise: args.load_noise,
+        }
+    });
     print_summary(&id, &source);
-    let out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
+    if let Some(e) = &excitation {
+        println!(
+            "excitation  {} loop: PRBS {}/{} on {}, duty recorded from {}{}",
+            if e.closed_loop { "closed" } else { "open" },
+            e.levels[0],
+            e.levels[1],
+            e.signal,
+            e.recorded_duty,
+            if e.load_noise > 0.0 { format!(", load disturbance σ = {} A", e.load_noise) } else { String::new() }
+        );
+    }
+    let mut out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
+    out.excitation = excitation;
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&out)? + "\n").with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
@@ -247,6 +310,7 @@ fn output(
             .collect(),
         assumed: assumed.to_vec(),
         source: source.to_string(),
+        excitation: None,
         candidates: id
             .candidates
             .iter()

@@ -95,12 +95,20 @@ struct IdentifyArgs {
     /// Output sampling.
     #[arg(long, value_enum, default_value_t = SamplingChoice::Start)]
     sampling: SamplingChoice,
-    /// Predictor disturbance model.
-    #[arg(long, value_enum, default_value_t = NoiseChoice::Oe)]
-    noise_model: NoiseChoice,
-    /// Duty levels of the PRBS.
-    #[arg(long, num_args = 2, value_names = ["LOW", "HIGH"], default_values_t = [0.4, 0.6])]
-    duty: Vec<f64>,
+    /// Predictor disturbance model (default: oe in open loop, kalman in closed loop).
+    #[arg(long, value_enum)]
+    noise_model: Option<NoiseChoice>,
+    /// Levels of the PRBS: duties in open loop (default 0.4 0.6), duty dither in closed loop
+    /// (default −0.02 0.02).
+    #[arg(long, num_args = 2, value_names = ["LOW", "HIGH"], allow_negative_numbers = true)]
+    duty: Option<Vec<f64>>,
+    /// Identify while the FMU's controller regulates: excite through `duty_dither`, record the
+    /// applied duty (`duty_applied`) and the ADC readings, fit with the Kalman predictor.
+    #[arg(long)]
+    closed_loop: bool,
+    /// σ of an unmeasured load-current disturbance drawn every period [A] (FMU runs).
+    #[arg(long, default_value_t = 0.0)]
+    load_noise: f64,
     /// Switching periods per PRBS bit.
     #[arg(long, default_value_t = 8)]
     bit_periods: usize,

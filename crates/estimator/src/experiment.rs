@@ -67,10 +67,11 @@ fn extra_taps(order: u32) -> &'static [u32] {
 impl Prbs {
     /// Checks the settings.
     pub fn validate(&self) -> Result<(), EstimatorError> {
-        let in_unit = |x: f64| (0.0..=1.0).contains(&x);
-        if !(in_unit(self.low) && in_unit(self.high)) || self.low == self.high {
+        // Levels are duties in open loop and duty dither (which may be negative) in closed loop.
+        let in_range = |x: f64| (-1.0..=1.0).contains(&x);
+        if !(in_range(self.low) && in_range(self.high)) || self.low == self.high {
             return Err(EstimatorError::Config(format!(
-                "PRBS levels {} and {} must be distinct duties in 0..1",
+                "PRBS levels {} and {} must be distinct values in −1..1",
                 self.low, self.high
             )));
         }
@@ -133,11 +134,14 @@ pub struct Experiment {
     pub noise_load: f64,
     /// Seed of the noise.
     pub noise_seed: u64,
+    /// Record the duty the plant reports as applied (closed loop: the controller's output)
+    /// instead of the excitation.
+    pub record_applied_duty: bool,
 }
 
 impl Default for Experiment {
     fn default() -> Self {
-        Self { samples: 3001, warmup: 64, prbs: Prbs::default(), io: 1.0, vin: 12.0, noise_vout: 0.0, noise_il: 0.0, noise_load: 0.0, noise_seed: 7 }
+        Self { samples: 3001, warmup: 64, prbs: Prbs::default(), io: 1.0, vin: 12.0, noise_vout: 0.0, noise_il: 0.0, noise_load: 0.0, noise_seed: 7, record_applied_duty: false }
     }
 }
 
@@ -150,6 +154,8 @@ pub struct PeriodSample {
     pub il: f64,
     /// Averages over the period, when the plant offers them: `(vout, il)`.
     pub average: Option<(f64, f64)>,
+    /// Duty that drove the switch in the period just run, when the plant reports it.
+    pub duty_applied: Option<f64>,
 }
 
 /// Anything that can be driven one switching period at a time: our model in process, an FMU,
@@ -161,8 +167,9 @@ pub trait Plant {
     fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError>;
     /// Outputs at the current period start.
     fn sample(&mut self) -> Result<PeriodSample, EstimatorError>;
-    /// Applies `duty` and load current `io` for one switching period; afterwards `sample`
-    /// gives the next period start (and the averages over the period just run).
+    /// Applies the excitation `duty` (the duty command in open loop, the dither in closed loop)
+    /// and load current `io` for one switching period; afterwards `sample` gives the next
+    /// period start (and the averages and applied duty of the period just run).
     fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError>;
     /// Metadata describing the plant for the data set (`fs`, `L`, …).
     fn describe(&self) -> Vec<(String, String)>;
@@ -197,7 +204,13 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
         plant.step_period(d, io_at())?;
         let next = plant.sample()?;
         data.time.push(k as f64 / fs);
-        data.duty.push(d);
+        data.duty.push(match (exp.record_applied_duty, next.duty_applied) {
+            (true, Some(applied)) => applied,
+            (true, None) => {
+                return Err(EstimatorError::Plant("the plant does not report the applied duty (role duty_applied)".into()));
+            }
+            (false, _) => d,
+        });
         data.vin.push(exp.vin);
         data.io.push(exp.io);
         data.vout.push(start.vout);
@@ -242,12 +255,22 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
 #[derive(Debug, Clone)]
 pub struct ModelPlant {
     converter: Converter,
+    /// The input the experiment's excitation drives (`duty`, or `duty_dither` in closed loop).
+    excite: VarId,
+    /// Report the ADC readings (the digital controller's view) instead of the true samples.
+    adc: bool,
 }
 
 impl ModelPlant {
     /// A plant with these parameters in this mode.
     pub fn new(params: Params, mode: Mode) -> Self {
-        Self { converter: Converter::new(params, mode) }
+        Self { converter: Converter::new(params, mode), excite: VarId::Duty, adc: false }
+    }
+
+    /// A configured converter in closed loop: the experiment drives `duty_dither`, and the
+    /// samples are the ADC readings the controller sees (with its sensor noise).
+    pub fn closed_loop(converter: Converter) -> Self {
+        Self { converter, excite: VarId::Dither, adc: true }
     }
 }
 
@@ -261,18 +284,21 @@ impl Plant for ModelPlant {
     }
 
     fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError> {
-        self.converter.set_inputs(buck_model::Inputs { duty, io, vin, ..buck_model::Inputs::default() }).map_err(plant_err)?;
+        self.converter.set(self.excite, duty).map_err(plant_err)?;
+        self.converter.set(VarId::Io, io).map_err(plant_err)?;
+        self.converter.set(VarId::Vin, vin).map_err(plant_err)?;
         self.converter.initialize();
         Ok(())
     }
 
     fn sample(&mut self) -> Result<PeriodSample, EstimatorError> {
         let y = self.converter.outputs();
-        Ok(PeriodSample { vout: y.vout, il: y.il, average: Some((y.vout_avg, y.il_avg)) })
+        let (vout, il) = if self.adc { (y.vout_adc, y.il_adc) } else { (y.vout, y.il) };
+        Ok(PeriodSample { vout, il, average: Some((y.vout_avg, y.il_avg)), duty_applied: Some(y.duty_applied) })
     }
 
     fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {
-        self.converter.set(VarId::Duty, duty).map_err(plant_err)?;
+        self.converter.set(self.excite, duty).map_err(plant_err)?;
         self.converter.set(VarId::Io, io).map_err(plant_err)?;
         self.converter.step(self.converter.params().period()).map_err(plant_err)
     }

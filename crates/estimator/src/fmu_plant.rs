@@ -10,7 +10,7 @@ use crate::error::EstimatorError;
 use crate::experiment::{PeriodSample, Plant};
 
 /// Signal roles of the estimator; each maps to an FMU variable (by default of the same name).
-pub const ROLES: [&str; 7] = ["duty", "io", "vin", "vout", "il", "vout_avg", "il_avg"];
+pub const ROLES: [&str; 8] = ["duty", "io", "vin", "vout", "il", "vout_avg", "il_avg", "duty_applied"];
 /// Roles the FMU must have.
 const REQUIRED: [&str; 2] = ["duty", "vout"];
 /// Known circuit values read from the FMU's parameters for the metadata (never `Cl`).
@@ -21,6 +21,9 @@ const DESCRIBED: [&str; 5] = ["L", "RL", "C", "Rc", "fs"];
 pub struct FmuOptions {
     /// Role → FMU variable name, for FMUs that name things their own way.
     pub map: BTreeMap<String, String>,
+    /// Role → FMU variable name applied only when the FMU has that variable and `map` does not
+    /// name the role (e.g. `duty → duty_dither` in closed loop, ignored by other FMUs).
+    pub default_map: Vec<(String, String)>,
     /// Start values to set before initialization, by FMU variable name.
     pub set: Vec<(String, f64)>,
     /// Start values applied only when the FMU has a variable of that name and `set` does not
@@ -58,14 +61,20 @@ impl FmuPlant {
     /// FMU's own) and malformed FMUs.
     pub fn open(path: &Path, opts: &FmuOptions) -> Result<Self, EstimatorError> {
         let fmu = Fmu::open(path).map_err(plant_err)?;
-        for role in opts.map.keys() {
+        for role in opts.map.keys().chain(opts.default_map.iter().map(|(r, _)| r)) {
             if !ROLES.contains(&role.as_str()) {
                 return Err(EstimatorError::Config(format!("unknown role `{role}` in --map; roles are {}", ROLES.join(", "))));
             }
         }
+        let mut map = opts.map.clone();
+        for (role, name) in &opts.default_map {
+            if fmu.variable(name).is_some() && !map.contains_key(role) {
+                map.insert(role.clone(), name.clone());
+            }
+        }
         let mut roles = BTreeMap::new();
         for role in ROLES {
-            let mapped = opts.map.get(role);
+            let mapped = map.get(role);
             let name = mapped.map_or(role, String::as_str);
             match fmu.value_reference(name) {
                 Ok((vr, VarKind::Real)) => {
@@ -163,7 +172,8 @@ impl Plant for FmuPlant {
             (Some(v), Some(i)) => Some((v, i)),
             _ => None,
         };
-        Ok(PeriodSample { vout, il, average })
+        let duty_applied = self.get("duty_applied")?;
+        Ok(PeriodSample { vout, il, average, duty_applied })
     }
 
     fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {

@@ -225,8 +225,9 @@ pub struct Model {
     period: f64,
 }
 
-/// Largest number of distinct duty values the PWM model accepts (one exact map per value).
-pub const MAX_PWM_LEVELS: usize = 64;
+/// Largest number of distinct duty values the PWM model accepts (one exact map per value;
+/// closed-loop data through a 10-bit DPWM has a few hundred).
+pub const MAX_PWM_LEVELS: usize = 4096;
 
 impl Model {
     /// Binds `structure` to `data`. Errors name a missing column or an unusable duty sequence.
@@ -280,7 +281,7 @@ impl Model {
                 }
                 if levels.len() > MAX_PWM_LEVELS {
                     return Err(EstimatorError::Config(format!(
-                        "the PWM model needs a duty with few distinct levels; this data has {} (max {MAX_PWM_LEVELS})",
+                        "the PWM model needs a duty with finitely many levels (a DPWM register); this data has {} distinct duties (max {MAX_PWM_LEVELS})",
                         levels.len()
                     )));
                 }

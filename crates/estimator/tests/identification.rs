@@ -62,3 +62,44 @@ fn reduced_model_is_accurate_at_the_true_cl() {
     assert!(f.sigma[0] < 0.1e-3, "residual rms {:e} V", f.sigma[0]);
     assert!((f.estimate("Cl").unwrap().value / truth.cl - 1.0).abs() < 0.002);
 }
+
+/// Closed loop (switched plant, PID with one period of computation delay, 10-bit DPWM, 2 mV
+/// ADC noise inside the loop, 0.6 A load disturbance, PRBS on the dither): the disturbance is
+/// coloured and, through the feedback, correlated with the applied duty, so a plain
+/// output-error fit is biased and its CI95 misses; the innovations (Kalman) predictor stays
+/// consistent. Ten runs at Cl = 47 µF (measured: OE +7.2 % mean, Kalman −0.1 %).
+#[test]
+fn closed_loop_output_error_is_biased_and_the_kalman_predictor_is_not() {
+    use buck_model::Converter;
+    use buck_model::variables::VarId;
+    use estimator::experiment::Prbs;
+    let truth = 47e-6;
+    let runs: u32 = 10;
+    let mut stats = Vec::new();
+    for noise in [NoiseModel::OutputError, NoiseModel::Innovations] {
+        let (mut sum, mut covered) = (0.0, 0);
+        for r in 0..runs {
+            let mut c = Converter::new(Params { cl: truth, ..Params::default() }, Mode::Switched);
+            for (id, v) in [(VarId::Control, 2.0), (VarId::Delay, 1.0), (VarId::DpwmBits, 10.0), (VarId::AdcNoise, 2e-3), (VarId::NoiseSeed, f64::from(r + 1))] {
+                c.set(id, v).unwrap();
+            }
+            let exp = Experiment {
+                samples: 4500,
+                noise_load: 0.6,
+                noise_seed: u64::from(r),
+                record_applied_duty: true,
+                prbs: Prbs { low: -0.02, high: 0.02, ..Prbs::default() },
+                ..Experiment::default()
+            };
+            let data = run(&mut ModelPlant::closed_loop(c), &exp).unwrap();
+            let opts = IdentifyOptions { structures: vec![Structure::Pwm], noise, ..IdentifyOptions::default() };
+            let e = *identify(&data, &Params::default(), &opts).unwrap().best().fit.estimate("Cl").unwrap();
+            sum += e.value / truth - 1.0;
+            covered += u32::from(e.ci95.0 <= truth && truth <= e.ci95.1);
+        }
+        stats.push((sum / f64::from(runs), covered));
+    }
+    let ((oe_mean, oe_cover), (kf_mean, kf_cover)) = (stats[0], stats[1]);
+    assert!(oe_mean > 0.03 && oe_cover <= 6, "output error: mean {:.2} %, {oe_cover}/{runs} covered", 100.0 * oe_mean);
+    assert!(kf_mean.abs() < 0.015 && kf_cover >= 8, "Kalman: mean {:.2} %, {kf_cover}/{runs} covered", 100.0 * kf_mean);
+}
