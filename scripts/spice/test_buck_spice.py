@@ -1,5 +1,6 @@
-"""Analytic sanity checks of the ngspice ideal-switch buck (constant duty)."""
+"""Analytic sanity checks of the ngspice buck circuits: ideal switch, synchronous MOSFET, diode."""
 
+import json
 import os
 import shutil
 import sys
@@ -32,3 +33,169 @@ def test_period_start_current_is_ripple_valley(settled):
     # The textbook valley neglects the RL drop and output ripple (~6 mA here).
     valley = IO - U * D * (1 - D) / (2 * L * FS)
     assert np.max(np.abs(settled["il_start"] - valley)) < 0.02
+
+
+# --------------------------------------------------------------------------
+# Real circuits: synchronous MOSFET buck and asynchronous (Schottky) buck.
+# Constant duty from the approximate DC point (buck_spice.dc_point); the
+# output has settled to < 10 uV per period over the last TAIL periods.
+
+REAL_N = 200
+T = 1.0 / FS
+
+
+def _needs_ngspice():
+    if shutil.which("ngspice") is None:
+        pytest.skip("ngspice not on PATH")
+
+
+def _tail(r, n=TAIL):
+    return {k: v[-n:] for k, v in r.items()}
+
+
+def _body_diode_vf(i):
+    p = buck_spice.mosfet_params()
+    return buck_spice.diode_vf(i, dict(Is=p["Is"], N=p["N"], Rs=p["Rb"]))
+
+
+@pytest.fixture(scope="module")
+def sync_runs():
+    _needs_ngspice()
+    d = np.full(REAL_N, D)
+    return {
+        # defaults: 30 ns dead time, 5 ns gate ramps, Rds_on = 10 mOhm
+        "default": _tail(buck_spice.simulate(d, circuit="sync", io=2.0)),
+        "td30": _tail(buck_spice.simulate(d, circuit="sync", io=2.0, gate_rise=1e-9)),
+        "td1": _tail(buck_spice.simulate(d, circuit="sync", io=2.0, dead_time=1e-9,
+                                         gate_rise=1e-9)),
+    }
+
+
+def test_sync_buck_rds_on_drop(sync_runs):
+    # Dead time ~ 0 (1 ns, 1 ns gate ramps): only the conduction drop of the
+    # MOSFETs (equal Rds_on high and low side, so it simply adds to RL).
+    # The gate ramps cross the threshold within +-0.5 ns of the nominal
+    # instants: +-(0.5 ns/T)*U = 2 mV per edge, hence 5 mV.
+    r, io, ron = sync_runs["td1"], 2.0, 10e-3
+    assert np.max(np.abs(r["il_avg"] - io)) < 1e-3
+    assert np.max(np.abs(r["vout_avg"] - (D * U - (RL + ron) * io))) < 5e-3
+
+
+def test_sync_buck_dead_time_loss(sync_runs):
+    # With il > 0 through both dead times the body diode of the low side
+    # conducts: the switch node sits at -Vbd instead of U before the high side
+    # turns on (loss td*(U + Vbd)) and at -Vbd instead of ~0 before the low
+    # side turns on (loss td*Vbd), so
+    #     vout = d*U - (RL + Rds_on)*io - (td/T)*(U + Vbd(i_valley) + Vbd(i_peak)),
+    # Vbd from the VDMOS body-diode model at the ripple valley and peak
+    # (0.72 V, 0.81 V).  The edges shorten the effective dead time by ~1-2 ns
+    # each (threshold crossings vs ramp midpoints, a few ns of switch-node slew
+    # at turn-off): +-2 edges*2 ns*(U + Vbd)/T = 17 mV, hence 20 mV on the
+    # difference; 30 mV on the absolute value (defaults, 5 ns gate ramps).
+    io, ron = 2.0, 10e-3
+    ripple = (U - D * U) * D * T / L
+    vbd = _body_diode_vf(io - ripple / 2) + _body_diode_vf(io + ripple / 2)
+    loss = lambda td: td / T * (U + vbd)  # noqa: E731
+    v1, v30 = sync_runs["td1"]["vout_avg"].mean(), sync_runs["td30"]["vout_avg"].mean()
+    delta = v30 - v1
+    assert -0.15 < delta < -0.09, f"dead-time effect {delta * 1e3:.1f} mV"
+    assert abs(delta + loss(30e-9 - 1e-9)) < 20e-3
+    v_default = sync_runs["default"]["vout_avg"]
+    assert np.max(np.abs(v_default - (D * U - (RL + ron) * io - loss(30e-9)))) < 30e-3
+
+
+def test_async_buck_ccm_diode_drop():
+    # CCM (io = 3 A > ripple/2 = 0.69 A): the Schottky conducts for (1-d)*T,
+    #     vout = d*U - (1-d)*Vf(io) - RL*io - d*Rds_on*io,
+    # Vf(3 A) = 0.454 V from the diode model.  Neglected: Vf's curvature over
+    # the ripple (-1 mV), the switching edges (the high side starts conducting
+    # ~1 ns before the ramp midpoint and stops ~1 ns after; the node falls
+    # over a few ns at turn-off: ~+10 mV), the snubber; hence 30 mV.
+    _needs_ngspice()
+    io, d, ron = 3.0, 0.5, 10e-3
+    r = _tail(buck_spice.simulate(np.full(REAL_N, d), circuit="async", io=io))
+    vf = buck_spice.diode_vf(io, buck_spice.diode_params())
+    assert 0.43 < vf < 0.48
+    expected = d * U - (1 - d) * vf - RL * io - d * ron * io
+    assert np.max(np.abs(r["il_avg"] - io)) < 1e-3
+    assert np.max(np.abs(r["vout_avg"] - expected)) < 30e-3
+    assert np.all(r["il_start"] > 1.0)  # the current never reaches zero
+
+
+def test_async_buck_dcm_raises_gain_and_current_stops_at_zero():
+    # io = 0.1 A < ripple/2: the inductor current falls to zero before the
+    # period ends, the diode stops and the switch node rings (damped by the
+    # RC snubber) around vout.  The CCM formula d*U - (1-d)*Vf = 3.35 V no
+    # longer holds: the DCM volt-second balance (buck_spice.dc_point, lossless
+    # but for the diode) gives 9.98 V; snubber, ringing and conduction losses
+    # (~2-3 % of the 1 W output) pull the simulation slightly below it.
+    _needs_ngspice()
+    io, d = 0.1, 0.3
+    vf = buck_spice.diode_vf(io, buck_spice.diode_params())
+    v_ccm = d * U - (1 - d) * vf - RL * io
+    v_dcm = buck_spice.dc_point("async", d, io=io)[2]
+    # From the DCM estimate: it holds (a CCM circuit would fall to v_ccm
+    # within ~150 periods), and the period starts with il = 0.
+    r = _tail(buck_spice.simulate(np.full(300, d), circuit="async", io=io))
+    assert np.all(r["vout_avg"] > v_ccm + 3.0)
+    assert np.all((r["vout_avg"] > v_dcm - 0.25) & (r["vout_avg"] < v_dcm + 0.02))
+    assert np.max(np.abs(r["il_start"])) < 5e-3
+    # From the CCM operating point: the output climbs away from it (the slow
+    # DCM pole, ~600 periods at this load).
+    r = buck_spice.simulate(np.full(300, d), circuit="async", io=io, x0=(io, v_ccm, v_ccm))
+    v = r["vout_avg"]
+    assert v[100] > v[0] + 1.0 and v[-1] > v[100] + 1.0 and v[-1] > v_ccm + 3.0
+
+
+def test_long_prbs_run_survives_run_boundaries():
+    # Regression: without buck_spice._separate_breakpoints this aborted with
+    # "timestep too small" at period 880 (a train's phantom breakpoint
+    # coinciding with the next run's first corner, t > 0.5 ms).
+    _needs_ngspice()
+    r = buck_spice.simulate(buck_spice.prbs_duty(700, seed=1), circuit="async", io=1.0,
+                            warmup=200)
+    assert len(r["vout_avg"]) == 700 and np.all(np.isfinite(r["vout_avg"]))
+
+
+def test_gate_breakpoints_are_separated():
+    duty = np.r_[buck_spice.prbs_duty(400, seed=3), np.full(5, 1.0), np.full(5, 0.0),
+                 buck_spice.prbs_duty(20, bit_periods=1, low=0.1, high=0.9)]
+    for circuit, td in (("sync", 30e-9), ("sync", 0.0), ("async", 30e-9)):
+        gates = buck_spice._pwm_gate_intervals(duty, T, circuit, td)
+        chains = {g: buck_spice._gate_chains(iv, 5e-9, T) for g, iv in gates.items()}
+        buck_spice._separate_breakpoints(list(chains.values()), 5e-9)
+        corners = np.sort(np.concatenate([buck_spice._chain_corners(c, 5e-9)
+                                          for cl in chains.values() for c in cl]))
+        assert np.min(np.diff(corners)) >= buck_spice.BREAK_MARGIN * (1 - 1e-6)
+
+
+def test_warmup_drops_leading_periods():
+    _needs_ngspice()
+    duty = buck_spice.prbs_duty(60, seed=9)
+    full = buck_spice.simulate(np.r_[np.full(20, duty[0]), duty])
+    part = buck_spice.simulate(duty, warmup=20)
+    np.testing.assert_array_equal(part["time"], np.arange(60) * T)
+    for k in ("vout_avg", "il_avg"):
+        np.testing.assert_array_equal(part[k], full[k][20:])
+    for k in ("vout_start", "il_start", "vc_start"):
+        np.testing.assert_array_equal(part[k], full[k][20:])
+
+
+def test_cli_real_circuit_metadata_and_truth(tmp_path):
+    _needs_ngspice()
+    out, truth = tmp_path / "sync.csv", tmp_path / "sync.json"
+    buck_spice.main(["--circuit", "sync", "--periods", "30", "--warmup", "10",
+                     "--out", str(out), "--truth", str(truth)])
+    lines = out.read_text().splitlines()
+    meta = dict(line[1:].split("=", 1) for line in lines if line.startswith("#"))
+    meta = {k.strip(): v.strip() for k, v in meta.items()}
+    assert meta["circuit"] == "sync" and meta["source"].startswith("ngspice")
+    for k in ("fs", "L", "RL", "C", "Rc", "U", "io"):
+        float(meta[k])
+    # The data must not name the effect; the sidecar does.
+    head = "\n".join(line for line in lines if line.startswith("#")).lower()
+    assert "dead" not in head and "rds" not in head
+    assert len(lines) == len(meta) + 1 + 30
+    t = json.loads(truth.read_text())
+    assert t["circuit"] == "sync" and t["effects"]["dead_time"]["t_dead"] == 30e-9
+    assert t["effects"]["switch_resistance"]["rds_on_high"] == 10e-3
