@@ -249,16 +249,19 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         }
     });
     print_summary(&id, &source);
-    if let Some(e) = &excitation {
-        println!(
-            "excitation  {} loop: PRBS {}/{} on {}, duty recorded from {}{}",
+    let excitation_text = excitation.as_ref().map(|e| {
+        format!(
+            "{} loop: PRBS {}/{} on {}, duty recorded from {}{}",
             if e.closed_loop { "closed" } else { "open" },
             e.levels[0],
             e.levels[1],
             e.signal,
             e.recorded_duty,
             if e.load_noise > 0.0 { format!(", load disturbance σ = {} A", e.load_noise) } else { String::new() }
-        );
+        )
+    });
+    if let Some(text) = &excitation_text {
+        println!("excitation  {text}");
     }
     let mut out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
     out.excitation = excitation;
@@ -267,7 +270,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if let Some(dir) = &args.report {
-        let file = crate::report::write(dir, &id, &nominal, &source)?;
+        let file = crate::report::write(dir, &id, &nominal, &source, excitation_text.as_deref())?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())

@@ -11,7 +11,7 @@ use estimator::validate::LAGS;
 use crate::svg::{Plot, Series, esc};
 
 /// Writes `index.html` into `dir` and returns its path.
-pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str) -> Result<PathBuf> {
+pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str, excitation: Option<&str>) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let best = id.best();
     let v = &best.validation;
@@ -88,13 +88,14 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str) ->
         r#"<!doctype html><html><head><meta charset="utf-8"><title>buckid identify</title>
 <style>body{{font-family:sans-serif;max-width:760px;margin:2em auto}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>
 <h1>Load capacitance identification</h1>
-<p>Source: <code>{}</code>. {} estimation samples, {} held-out samples. Chosen model: <b>{}</b> (best held-out one-step prediction).
+<p>Source: <code>{}</code>.{} {} estimation samples, {} held-out samples. Chosen model: <b>{}</b> (best held-out one-step prediction).
 Residuals {} white (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} vs {:.1}).</p>
 <table><tr><th>model</th><th>Cl [µF]</th><th>95 % CI [µF]</th><th>sim fit [%]</th><th>pred fit [%]</th><th>fit time [ms]</th></tr>{rows}</table>
 {}{}{}{}
 </body></html>
 "#,
         esc(source),
+        excitation.map_or(String::new(), |e| format!(" Excitation: {}.", esc(e))),
         id.estimation_samples,
         id.validation_samples,
         best.structure.name(),
