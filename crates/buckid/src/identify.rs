@@ -21,7 +21,7 @@ fn pair(s: &str, flag: &str) -> Result<(String, String)> {
 }
 
 /// Known circuit values from the data's metadata; thesis values (with a note) where absent.
-pub fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
+pub(crate) fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
     let mut p = Params::default();
     let mut assumed = Vec::new();
     type Field = fn(&mut Params) -> &mut f64;

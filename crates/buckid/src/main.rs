@@ -4,6 +4,7 @@
 //! an HTML report with `--report DIR`.
 #![forbid(unsafe_code)]
 
+mod diagnose;
 mod identify;
 mod report;
 mod svg;
@@ -23,7 +24,23 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Estimate Cl with its 95 % confidence interval, validated on held-out data.
-    Identify(IdentifyArgs),
+    Identify(Box<IdentifyArgs>),
+    /// Say where the averaged model misses the data, which unmodelled effect explains it, and
+    /// how far the held-out error shrinks once it is added.
+    Diagnose(DiagnoseArgs),
+}
+
+#[derive(Debug, Args)]
+struct DiagnoseArgs {
+    /// CSV data file (the data contract), e.g. from ngspice (`scripts/spice/buck_spice.py`).
+    #[arg(long)]
+    data: PathBuf,
+    /// Fraction of the samples, at the end, held out for judging.
+    #[arg(long, default_value_t = 1.0 / 3.0)]
+    holdout: f64,
+    /// Write the diagnosis as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 /// Model structure choice.
@@ -136,6 +153,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Identify(args) => identify::run(&args),
+        Command::Diagnose(args) => diagnose::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -267,6 +267,12 @@ impl ModelPlant {
         Self { converter: Converter::new(params, mode), excite: VarId::Duty, adc: false }
     }
 
+    /// A configured converter in open loop: the experiment drives `duty`, the samples are the
+    /// true period-start values.
+    pub fn with_converter_in_open_loop(converter: Converter) -> Self {
+        Self { converter, excite: VarId::Duty, adc: false }
+    }
+
     /// A configured converter in closed loop: the experiment drives `duty_dither`, and the
     /// samples are the ADC readings the controller sees (with its sensor noise).
     pub fn closed_loop(converter: Converter) -> Self {

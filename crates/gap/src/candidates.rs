@@ -1,0 +1,197 @@
+//! The candidate effects: each is the nominal model plus that effect, fitted together with Cl
+//! on the estimation part and judged on the held-out part.
+use std::collections::BTreeMap;
+
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::identify::{Candidate, IdentifyOptions, identify};
+use estimator::model::{Free, Structure};
+use estimator::validate::chi2_99;
+use serde::Serialize;
+
+use crate::{DiagnoseOptions, nominal_options};
+
+/// Every effect of the design table, by its contract name.
+pub const EFFECTS: [&str; 12] = [
+    "switch_resistance",
+    "diode_drop",
+    "dead_time",
+    "dcm",
+    "load_esr",
+    "esl",
+    "delay",
+    "adc_quantization",
+    "inductor_saturation",
+    "cap_dc_bias",
+    "switching_ripple",
+    "param_drift",
+];
+
+/// Akaike difference below which a model with as many parameters counts as clearly better
+/// (Burnham & Anderson: ΔAIC > 10 leaves essentially no support for the worse model).
+const AIC_MARGIN: f64 = 10.0;
+
+/// How Cl's estimate moved once the effect was added.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClMove {
+    /// Estimate with the effect [F].
+    pub estimate: f64,
+    /// Its 95 % confidence interval [F].
+    pub ci95: [f64; 2],
+    /// Change against the nominal fit [%].
+    pub moved_percent: f64,
+}
+
+/// One candidate effect's fit and judgement.
+#[derive(Debug, Clone, Serialize)]
+pub struct EffectFit {
+    /// Contract name (see [`EFFECTS`]).
+    pub name: &'static str,
+    /// The effect's fitted parameters.
+    pub params: BTreeMap<String, f64>,
+    /// 95 % confidence intervals of the continuous parameters.
+    pub ci95: BTreeMap<String, [f64; 2]>,
+    /// Cl with the effect in the model.
+    pub cl: ClMove,
+    /// Held-out NRMSE of the simulation with the effect.
+    pub nrmse_after: f64,
+    /// How much of the held-out gap closed [%].
+    pub shrink_percent: f64,
+    /// AIC difference against the nominal model (negative: better).
+    pub delta_aic: f64,
+    /// Likelihood-ratio statistic against the nominal model, for nested continuous effects.
+    pub lr_statistic: Option<f64>,
+    /// Its 99 % critical value.
+    pub lr_limit: Option<f64>,
+    /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change) and
+    /// better on the held-out data.
+    pub significant: bool,
+    /// Held-out simulation residual (for the noise floor).
+    #[serde(skip)]
+    pub residual: Vec<f64>,
+}
+
+/// An effect this version cannot fit yet.
+#[derive(Debug, Clone, Serialize)]
+pub struct NotTested {
+    /// Contract name.
+    pub name: &'static str,
+    /// Why.
+    pub reason: &'static str,
+}
+
+/// The effects without a grey-box model in the estimator yet.
+pub fn not_tested() -> Vec<NotTested> {
+    let reason = "no grey-box model of this effect in the estimator yet";
+    ["diode_drop", "dead_time", "dcm", "load_esr", "esl", "adc_quantization", "inductor_saturation", "cap_dc_bias"]
+        .into_iter()
+        .map(|name| NotTested { name, reason })
+        .collect()
+}
+
+struct Trial {
+    cand: Candidate,
+    params: BTreeMap<String, f64>,
+    ci95: BTreeMap<String, [f64; 2]>,
+    /// Extra estimated values against the nominal model (0 for a swapped structure).
+    extra: usize,
+    /// A discrete choice was made (e.g. the delay), so the LR test does not apply.
+    discrete: bool,
+}
+
+fn residual(c: &Candidate) -> Vec<f64> {
+    c.validation.traces.measured.iter().zip(&c.validation.traces.simulated).map(|(m, s)| m - s).collect()
+}
+
+/// The duty delayed by `n` periods (the first periods repeat the first duty).
+fn delayed(data: &DataSet, n: usize) -> DataSet {
+    let mut d = data.clone();
+    d.duty = (0..data.len()).map(|k| data.duty[k.saturating_sub(n)]).collect();
+    d
+}
+
+fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candidate> {
+    identify(data, nominal, &opts).ok().map(|id| id.best().clone())
+}
+
+/// Fits every modelled candidate; those whose fit fails (e.g. not identifiable) are left out.
+pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
+    let base_opts = nominal_options(opts.holdout);
+    let mut trials: Vec<(&'static str, Trial)> = Vec::new();
+
+    // switching_ripple: the sampled-data PWM model instead of the averaged one.
+    if let Some(cand) = run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..base_opts.clone() }) {
+        trials.push(("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }));
+    }
+    // param_drift: one "known" value freed (the best of L, C, Rc).
+    let drift = [Free::L, Free::C, Free::Rc]
+        .into_iter()
+        .filter_map(|f| run(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }).map(|c| (f, c)))
+        .min_by(|a, b| b.1.validation.fit_simulation[0].total_cmp(&a.1.validation.fit_simulation[0]));
+    if let Some((f, cand)) = drift {
+        let e = cand.fit.estimate(f.name()).copied();
+        let mut params = BTreeMap::new();
+        let mut ci95 = BTreeMap::new();
+        if let Some(e) = e {
+            params.insert(f.name().to_string(), e.value);
+            params.insert(format!("{}_nominal", f.name()), f.get(nominal));
+            ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+        }
+        trials.push(("param_drift", Trial { cand, params, ci95, extra: 1, discrete: false }));
+    }
+    // switch_resistance: extra series resistance on top of RL.
+    // (A fitted RL below the nominal is not this effect: resistance is only ever added.)
+    if let Some(cand) = run(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() })
+        && let Some(e) = cand.fit.estimate("RL").copied()
+        && e.value > nominal.rl
+    {
+        let params = BTreeMap::from([("switch_resistance".to_string(), e.value - nominal.rl)]);
+        let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);
+        trials.push(("switch_resistance", Trial { cand, params, ci95, extra: 1, discrete: false }));
+    }
+    // delay: the duty drives the switch 1 or 2 periods late.
+    let delay = (1..=2usize)
+        .filter_map(|n| run(&delayed(data, n), nominal, base_opts.clone()).map(|c| (n, c)))
+        .min_by(|a, b| b.1.validation.fit_simulation[0].total_cmp(&a.1.validation.fit_simulation[0]));
+    if let Some((n, cand)) = delay {
+        let params = BTreeMap::from([("delay".to_string(), n as f64)]);
+        trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, discrete: true }));
+    }
+
+    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
+    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
+    let var = |c: &Candidate| c.fit.sigma[0].powi(2);
+    trials
+        .into_iter()
+        .map(|(name, t)| {
+            let nrmse_after = 1.0 - t.cand.validation.fit_simulation[0] / 100.0;
+            let ln_ratio = (var(base) / var(&t.cand)).ln();
+            let lr = n_est as f64 * ln_ratio;
+            let delta_aic = -lr + 2.0 * t.extra as f64;
+            let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.discrete {
+                let limit = chi2_99(t.extra);
+                (Some(lr), Some(limit), lr > limit)
+            } else {
+                (None, None, delta_aic < -AIC_MARGIN)
+            };
+            let cl = t.cand.fit.estimate("Cl").copied();
+            EffectFit {
+                name,
+                params: t.params,
+                ci95: t.ci95,
+                cl: ClMove {
+                    estimate: cl.map_or(f64::NAN, |e| e.value),
+                    ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
+                    moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+                },
+                nrmse_after,
+                shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
+                delta_aic,
+                lr_statistic,
+                lr_limit,
+                significant: passes && nrmse_after < nrmse_before,
+                residual: residual(&t.cand),
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,108 @@
+//! Sim-to-real gap diagnosis: given "real" data (SPICE, a third-party model, a measurement)
+//! and the nominal simulation model, say **where** the model misses (frequency band, operating
+//! point, time window, each against the noise floor), **which** unmodelled effect explains
+//! the miss (every candidate effect is fitted together with Cl on the estimation part and
+//! judged on the held-out part, with a likelihood-ratio test or Akaike's criterion for
+//! significance), and **how far** the held-out error shrinks once it is added.
+//!
+//! The data is never asked which effect it holds: metadata naming an effect is ignored.
+#![forbid(unsafe_code)]
+
+mod candidates;
+mod locate;
+
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::identify::{IdentifyOptions, identify};
+use estimator::model::{Free, Structure};
+use serde::Serialize;
+
+pub use candidates::{EFFECTS, EffectFit, NotTested};
+
+/// Number of design-table effects this version does not fit yet.
+pub fn not_tested_count() -> usize {
+    candidates::not_tested().len()
+}
+pub use locate::{Band, Group, Where};
+
+/// Why a diagnosis could not be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum GapError {
+    /// The data or the nominal fit failed.
+    #[error("{0}")]
+    Estimator(#[from] estimator::EstimatorError),
+}
+
+/// Settings of a diagnosis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagnoseOptions {
+    /// Fraction of the samples, at the end, held out for judging.
+    pub holdout: f64,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self { holdout: 1.0 / 3.0 }
+    }
+}
+
+/// The nominal model's fit, the gap before any effect is added.
+#[derive(Debug, Clone, Serialize)]
+pub struct Before {
+    /// Held-out NRMSE of the nominal model's simulation.
+    pub nrmse: f64,
+    /// Cl of the nominal fit [F].
+    pub cl: f64,
+}
+
+/// Result of [`diagnose`].
+#[derive(Debug, Clone, Serialize)]
+pub struct Diagnosis {
+    /// The nominal model's held-out error.
+    pub gap_before: Before,
+    /// Where the nominal model misses.
+    #[serde(rename = "where")]
+    pub location: Where,
+    /// Every candidate effect that was fitted, best held-out error first.
+    pub effects: Vec<EffectFit>,
+    /// Effects of the design table this version cannot fit yet, with the reason.
+    pub not_tested: Vec<NotTested>,
+    /// The significant effect that closes most of the gap, or `none`.
+    pub verdict: String,
+}
+
+/// The nominal model: the averaged model with Cl free.
+fn nominal_options(holdout: f64) -> IdentifyOptions {
+    IdentifyOptions { structures: vec![Structure::Averaged], free: vec![Free::Cl], holdout, ..IdentifyOptions::default() }
+}
+
+/// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
+pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
+    let base = identify(data, nominal, &nominal_options(opts.holdout))?;
+    let base = base.best().clone();
+    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
+    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
+    let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
+    let mut effects = candidates::fit_all(data, nominal, opts, &base, n_est);
+    effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
+    let verdict = effects
+        .iter()
+        .find(|e| e.significant && e.shrink_percent > 0.0)
+        .map_or_else(|| "none".to_string(), |e| e.name.to_string());
+    // The noise floor is what the best significant model leaves (else the nominal residual).
+    let residual = base_residual(&base);
+    let floor = effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual);
+    let location = locate::locate(data, n_est, &residual, floor);
+    Ok(Diagnosis {
+        gap_before: Before { nrmse: nrmse_before, cl: cl_before },
+        location,
+        effects,
+        not_tested: candidates::not_tested(),
+        verdict,
+    })
+}
+
+fn base_residual(c: &estimator::identify::Candidate) -> Vec<f64> {
+    c.validation.traces.measured.iter().zip(&c.validation.traces.simulated).map(|(m, s)| m - s).collect()
+}
