@@ -74,7 +74,7 @@ pub struct Snapshot {
 }
 
 /// Tag in front of serialized states, so that foreign or stale bytes are rejected.
-const STATE_MAGIC: &[u8; 8] = b"BUCKST01";
+const STATE_MAGIC: &[u8; 8] = b"BUCKST02";
 
 /// An FMU instance.
 pub struct Instance {

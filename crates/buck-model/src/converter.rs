@@ -1,8 +1,9 @@
 //! The converter as a simulator: inputs, state, exact stepping over any step length.
-use nalgebra::{SMatrix, Vector2, Vector3};
+use nalgebra::{DMatrix, SMatrix, Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
 use crate::digital::{Control, Digital};
+use crate::lti::Lti;
 use crate::variables::{self, Type, VarId};
 use crate::{Mode, ModelError, Params};
 
@@ -34,14 +35,16 @@ pub struct State {
     pub il: f64,
     /// Voltage of C behind its ESR [V].
     pub vc: f64,
-    /// Output voltage across Cl [V].
+    /// Voltage across Cl [V] (the output voltage unless `load_esr > 0`).
     pub vo: f64,
+    /// Current into the C branch [A]; a state only when `esl > 0`, else ignored.
+    pub ic: f64,
 }
 
 /// Everything the converter reports.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outputs {
-    /// Instantaneous output voltage [V].
+    /// Instantaneous output (node) voltage [V].
     pub vout: f64,
     /// Instantaneous inductor current [A].
     pub il: f64,
@@ -64,21 +67,104 @@ pub struct Outputs {
 /// the next period's duty a rounding error too early. A step that ends away from any event
 /// is simulated exactly, however short.
 const SNAP: f64 = 1e-9;
-/// Pieces with cached transition matrices (PRBS between two duty levels needs four).
-const CACHE_SLOTS: usize = 8;
+/// Pieces with cached transition matrices (PRBS between two duty levels needs four, dead time
+/// and diode conduction a few more).
+const CACHE_SLOTS: usize = 16;
+/// Relative tolerance (of the period) of the instants of state events (`il = 0`, `|il| = isat`).
+const ROOT_TOL: f64 = 1e-15;
+/// State events handled within one piece before the rest of it is taken as it is (a guard
+/// against chattering; no physical configuration comes near it).
+const MAX_EVENTS: usize = 64;
 
-type Phi = SMatrix<f64, 6, 6>;
-type Gamma = SMatrix<f64, 6, 2>;
+/// Largest number of circuit states (`[il, vc, vcl, ic]`, `ic` only with `esl`).
+const NX: usize = 4;
+type Mat = SMatrix<f64, NX, NX>;
+type Inp = SMatrix<f64, NX, 2>;
 
-/// Transition of `[x; ∫x]` over one held-input piece: `ξ(τ) = phi·ξ(0) + gamma·[u_sw, io]`.
+/// Which gate of the half bridge is on over an interval fixed by the PWM timing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Gate {
+    /// High side on: `[0, d·T)`.
+    High,
+    /// Low side on (synchronous buck, outside dead time).
+    Low,
+    /// Both off: dead time, or the off-time of the asynchronous buck; diodes decide.
+    Off,
+    /// Averaged mode: the switch node carries `d·vin`.
+    Averaged,
+}
+
+/// What conducts over a piece: the linear circuit and the switch-node voltage follow from it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Topology {
+    /// High-side switch (either current direction): `u_sw = vin`, `RL + Rsw`.
+    High,
+    /// Low-side switch (either direction): `u_sw = 0`, `RL + Rsw`.
+    Low,
+    /// Averaged switch node `d·vin`, `RL + Rsw`.
+    Averaged,
+    /// Low-side diode with `il > 0`: `u_sw = −Vf`, `RL`.
+    LowDiode,
+    /// High-side body diode with `il < 0`: `u_sw = vin + V_bd`, `RL`.
+    HighDiode,
+    /// Everything off, `il` held at 0; the switch node floats at the output.
+    Blocked,
+}
+
+/// Identity of a cached transition: the linear circuit (series resistance, incremental
+/// inductance, load capacitance, blocked inductor) and the piece length, all as bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Key {
+    tau: u64,
+    r: u64,
+    l: u64,
+    cl: u64,
+    blocked: bool,
+}
+
+/// Transition over one held-input piece: `x(τ) = ad·x + bd·u`, `∫x = ia·x + ib·u` with
+/// `u = [u_sw, io]`. States beyond the configuration's count stay zero (their rows and columns
+/// are zero).
 #[derive(Debug, Clone)]
 struct Piece {
-    tau_bits: u64,
-    phi: Phi,
-    gamma: Gamma,
+    key: Key,
+    ad: Mat,
+    bd: Inp,
+    ia: Mat,
+    ib: Inp,
+}
+
+impl Piece {
+    /// `(x(τ), z + ∫x)`.
+    ///
+    /// Summed in the order of the ideal 3-state model's `[[ad, 0], [ia, I]]·[x; z] + Γ·u`, so
+    /// that the ideal circuit is reproduced bit for bit.
+    #[inline]
+    fn apply(&self, x: &Vector4<f64>, z: &Vector4<f64>, u: &Vector2<f64>) -> (Vector4<f64>, Vector4<f64>) {
+        let mut xn = Vector4::zeros();
+        let mut zn = Vector4::zeros();
+        for i in 0..NX {
+            let (mut a, mut b) = (0.0, 0.0);
+            for j in 0..NX {
+                a += self.ad[(i, j)] * x[j];
+                b += self.ia[(i, j)] * x[j];
+            }
+            xn[i] = a + (self.bd[(i, 0)] * u[0] + self.bd[(i, 1)] * u[1]);
+            zn[i] = (b + z[i]) + (self.ib[(i, 0)] * u[0] + self.ib[(i, 1)] * u[1]);
+        }
+        (xn, zn)
+    }
 }
 
 /// A buck converter that advances exactly over steps of any length.
+///
+/// The engine is piecewise linear: between events the circuit is one [`Topology`] (what
+/// conducts) with its `A`, `B` from [`Params::piece_lti`], held inputs `[u_sw, io]`, and an
+/// exact transition of the state and its integral, cached per (circuit, piece length). Fixed-time
+/// events come from the PWM timing (high-side turn-off at `d·T`, the dead-time edges, the period
+/// end); state events (`il = 0` of a conducting diode, `|il| = isat`) are located inside a piece
+/// on the exact solution by safeguarded Newton iteration to `1e-15·T`, the piece is split there
+/// and the topology re-chosen. One loop handles both, for any communication step.
 ///
 /// ```
 /// use buck_model::{Converter, Mode, Params};
@@ -97,18 +183,33 @@ pub struct Converter {
     mode: Mode,
     start_at_steady_state: bool,
     inputs: Inputs,
-    /// `[il, vc, vo]`.
-    x: Vector3<f64>,
+    /// `[il, vc, vcl, ic]` (`ic` stays 0 without `esl`).
+    x: Vector4<f64>,
     /// Integral of `x` since the start of the current period.
-    z: Vector3<f64>,
+    z: Vector4<f64>,
+    /// Integral of the load current since the start of the current period [A·s].
+    io_integral: f64,
+    /// Load current held over the latest piece [A]: `vout` depends on it through `load_esr`,
+    /// and an input set after a step must not change the outputs of that step.
+    io_held: f64,
     /// Time since the start of the current period [s].
     phase: f64,
     /// Duty in force during the current period (latched at its start).
     latched_duty: f64,
+    /// Load capacitance in force during the current period (`cap_dc_bias`) [F].
+    cl_now: f64,
+    /// The inductor current stopped at zero with both switches off (DCM) until the next turn-on.
+    blocked: bool,
+    /// `vout = cx·x + d·io` ([`Params::vout_map`], kept at hand: outputs are read every step).
+    vout_map: ([f64; 4], f64),
+    /// Saturation region when `|il| = isat` exactly (after an event): −1, 0 or +1.
+    sat_region: i8,
     /// The next piece starts a new period and must latch the duty first.
     at_period_start: bool,
-    /// Averages `[il, vc, vo]` over the last completed period.
-    last_average: Vector3<f64>,
+    /// Averages `[il, vc, vcl, ic]` over the last completed period.
+    last_average: Vector4<f64>,
+    /// Average load current over the last completed period [A].
+    last_io_average: f64,
     /// ADC, controller, delay line, DPWM.
     digital: Digital,
     /// Index of the current period.
@@ -128,12 +229,19 @@ impl Converter {
             mode,
             start_at_steady_state: true,
             inputs: Inputs::default(),
-            x: Vector3::zeros(),
-            z: Vector3::zeros(),
+            x: Vector4::zeros(),
+            z: Vector4::zeros(),
+            io_integral: 0.0,
+            io_held: 0.0,
             phase: 0.0,
             latched_duty: 0.0,
+            cl_now: params.cl,
+            vout_map: params.vout_map(),
+            blocked: false,
+            sat_region: 0,
             at_period_start: true,
-            last_average: Vector3::zeros(),
+            last_average: Vector4::zeros(),
+            last_io_average: 0.0,
             digital: Digital::default(),
             period_index: 0,
             time: 0.0,
@@ -203,17 +311,24 @@ impl Converter {
 
     /// Circuit state.
     pub fn state(&self) -> State {
-        State { il: self.x[0], vc: self.x[1], vo: self.x[2] }
+        State { il: self.x[0], vc: self.x[1], vo: self.x[2], ic: self.x[3] }
     }
 
     /// Puts the circuit at the start of a period in the given state, e.g. from an initial
     /// condition computed elsewhere.
     pub fn set_state(&mut self, s: State) {
-        self.x = Vector3::new(s.il, s.vc, s.vo);
-        self.z = Vector3::zeros();
+        let ic = if self.params.esl > 0.0 { s.ic } else { 0.0 };
+        self.x = Vector4::new(s.il, s.vc, s.vo, ic);
+        self.z = Vector4::zeros();
+        self.io_integral = 0.0;
+        self.io_held = self.inputs.io;
         self.phase = 0.0;
         self.at_period_start = true;
+        self.blocked = false;
+        self.sat_region = 0;
+        self.cl_now = self.params.cl_at(s.vo);
         self.last_average = self.x;
+        self.last_io_average = self.io_held;
     }
 
     /// Starts a new run at a period start: from the averaged DC operating point of the current
@@ -221,25 +336,34 @@ impl Converter {
     /// loop the operating point is the one where `vout = vref`, and the controller starts there.
     pub fn initialize(&mut self) {
         let Inputs { duty, io, vin, vref, .. } = self.inputs;
+        let r = self.params.rl + self.params.switch_resistance;
         let d0 = match self.digital.control {
             Control::Open => duty,
-            Control::Closed if vin > 0.0 => ((vref + self.params.rl * io) / vin).clamp(0.0, 1.0),
+            Control::Closed if vin > 0.0 => ((vref + r * io) / vin).clamp(0.0, 1.0),
             Control::Closed => 0.0,
         };
         let x0 = if self.start_at_steady_state { self.params.steady_state(d0, vin, io) } else { [0.0; 3] };
-        self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2] });
+        self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2], ic: 0.0 });
         self.period_index = 0;
-        self.digital.restart(d0, x0[2], x0[0]);
+        self.digital.restart(d0, self.vout(), x0[0]);
+    }
+
+    /// Output (node) voltage of the current state with the load current of the latest piece.
+    fn vout(&self) -> f64 {
+        let (cx, d) = self.vout_map;
+        cx[0] * self.x[0] + cx[1] * self.x[1] + cx[2] * self.x[2] + cx[3] * self.x[3] + d * self.io_held
     }
 
     /// Current outputs.
     pub fn outputs(&self) -> Outputs {
+        let (cx, d) = self.vout_map;
+        let avg = &self.last_average;
         Outputs {
-            vout: self.x[2],
+            vout: self.vout(),
             il: self.x[0],
             vc: self.x[1],
-            vout_avg: self.last_average[2],
-            il_avg: self.last_average[0],
+            vout_avg: cx[0] * avg[0] + cx[1] * avg[1] + cx[2] * avg[2] + cx[3] * avg[3] + d * self.last_io_average,
+            il_avg: avg[0],
             duty_applied: self.digital.applied(),
             vout_adc: self.digital.reading().0,
             il_adc: self.digital.reading().1,
@@ -290,6 +414,16 @@ impl Converter {
             VarId::AdcNoise => d.adc_noise,
             VarId::NoiseSeed => d.noise_seed as f64,
             VarId::DpwmBits => f64::from(d.dpwm_bits),
+            VarId::SwitchResistance => p.switch_resistance,
+            VarId::DiodeDrop => p.diode_drop,
+            VarId::Dcm => f64::from(u8::from(p.dcm)),
+            VarId::DeadTime => p.dead_time,
+            VarId::LoadEsr => p.load_esr,
+            VarId::Esl => p.esl,
+            VarId::InductorSaturation => p.inductor_saturation,
+            VarId::Isat => p.isat,
+            VarId::CapDcBias => p.cap_dc_bias,
+            VarId::CapRatedVoltage => p.cap_rated_voltage,
         }
     }
 
@@ -316,6 +450,15 @@ impl Converter {
                     VarId::Rc => p.rc = value,
                     VarId::Cl => p.cl = value,
                     VarId::Fs => p.fs = value,
+                    VarId::SwitchResistance => p.switch_resistance = value,
+                    VarId::DiodeDrop => p.diode_drop = value,
+                    VarId::DeadTime => p.dead_time = value,
+                    VarId::LoadEsr => p.load_esr = value,
+                    VarId::Esl => p.esl = value,
+                    VarId::InductorSaturation => p.inductor_saturation = value,
+                    VarId::Isat => p.isat = value,
+                    VarId::CapDcBias => p.cap_dc_bias = value,
+                    VarId::CapRatedVoltage => p.cap_rated_voltage = value,
                     VarId::Kp => d.kp = value,
                     VarId::Ki => d.ki = value,
                     VarId::Kd => d.kd = value,
@@ -324,8 +467,8 @@ impl Converter {
                     VarId::AdcNoise => d.adc_noise = value,
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
                 }
-                if matches!(id, VarId::L | VarId::Rl | VarId::C | VarId::Rc | VarId::Cl | VarId::Fs) {
-                    self.cache.clear();
+                if var.causality == variables::Causality::Parameter {
+                    self.parameters_changed();
                 }
             }
             Type::Integer { .. } => {
@@ -341,9 +484,27 @@ impl Converter {
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "as an integer" }),
                 }
             }
-            Type::Boolean { .. } => self.start_at_steady_state = value != 0.0,
+            Type::Boolean { .. } => match id {
+                VarId::SteadyStart => self.start_at_steady_state = value != 0.0,
+                VarId::Dcm => {
+                    self.params.dcm = value != 0.0;
+                    self.parameters_changed();
+                }
+                _ => return Err(ModelError::NotSettable { name: var.name, when: "as a Boolean" }),
+            },
         }
         Ok(())
+    }
+
+    /// Drops transitions computed from old parameters and re-derives what depends on them.
+    fn parameters_changed(&mut self) {
+        self.cache.clear();
+        self.next_slot = 0;
+        self.cl_now = self.params.cl_at(self.x[2]);
+        self.vout_map = self.params.vout_map();
+        if self.params.esl == 0.0 {
+            self.x[3] = 0.0;
+        }
     }
 
     /// Advances by `h` seconds, crossing every switching event exactly.
@@ -358,38 +519,30 @@ impl Converter {
             if self.at_period_start {
                 let Inputs { duty, dither, vref, .. } = self.inputs;
                 self.latched_duty = self.digital.latch(duty, dither, vref);
+                // cap_dc_bias, quasi-static: Cl follows the voltage across it once per period.
+                self.cl_now = self.params.cl_at(self.x[2]);
                 self.at_period_start = false;
             }
-            let switch_off = match self.mode {
-                Mode::Switched => self.latched_duty * period,
-                Mode::Averaged => period,
-            };
-            let (event, u_sw) = if self.phase < switch_off {
-                let u = match self.mode {
-                    Mode::Switched => self.inputs.vin,
-                    Mode::Averaged => self.latched_duty * self.inputs.vin,
-                };
-                (switch_off, u)
-            } else {
-                (period, 0.0)
-            };
+            let (gate, event) = self.gate(period);
             let to_event = event - self.phase;
             if remaining + snap < to_event {
                 // The step ends before the next event: advance exactly, however short.
-                self.advance(remaining, u_sw);
+                self.advance(remaining, gate);
                 self.phase += remaining;
                 break;
             }
-            self.advance(to_event, u_sw);
+            self.advance(to_event, gate);
             remaining -= to_event;
             self.phase = event;
             if event >= period {
                 self.last_average = self.z / period;
-                self.z = Vector3::zeros();
+                self.last_io_average = self.io_integral / period;
+                self.z = Vector4::zeros();
+                self.io_integral = 0.0;
                 self.phase = 0.0;
                 self.at_period_start = true;
                 self.period_index += 1;
-                self.digital.sample(self.x[2], self.x[0], self.period_index);
+                self.digital.sample(self.vout(), self.x[0], self.period_index);
             }
             // What is left after an event within the snap tolerance is the master's rounding
             // (e.g. a sum of steps of T), not time to simulate: the next period must latch the
@@ -402,42 +555,319 @@ impl Converter {
         Ok(())
     }
 
-    /// Advances `[x; z]` over one piece of length `tau` with the switch node held at `u_sw`.
-    fn advance(&mut self, tau: f64, u_sw: f64) {
+    /// The gate in force at the current phase and the end of its interval (the next fixed
+    /// event). Synchronous: high `[0, dT)`, dead `[dT, dT + td)`, low `[dT + td, T − td)`,
+    /// dead `[T − td, T)`; asynchronous: high `[0, dT)`, off `[dT, T)`.
+    fn gate(&self, period: f64) -> (Gate, f64) {
+        if self.mode == Mode::Averaged {
+            return (Gate::Averaged, period);
+        }
+        let on = self.latched_duty * period;
+        if self.phase < on {
+            return (Gate::High, on);
+        }
+        if self.params.asynchronous() {
+            return (Gate::Off, period);
+        }
+        let td = self.params.dead_time;
+        let (low_start, low_end) = (on + td, period - td);
+        if low_start >= low_end {
+            (Gate::Off, period)
+        } else if self.phase < low_start {
+            (Gate::Off, low_start)
+        } else if self.phase < low_end {
+            (Gate::Low, low_end)
+        } else {
+            (Gate::Off, period)
+        }
+    }
+
+    /// What conducts under `gate` in the current state.
+    fn topology(&mut self, gate: Gate) -> Topology {
+        match gate {
+            Gate::High => Topology::High,
+            Gate::Low => Topology::Low,
+            Gate::Averaged => Topology::Averaged,
+            Gate::Off if self.blocked => Topology::Blocked,
+            Gate::Off if self.x[0] > 0.0 => Topology::LowDiode,
+            Gate::Off if self.x[0] < 0.0 => Topology::HighDiode,
+            Gate::Off => {
+                // Zero current with both switches off: neither diode is forward-biased while the
+                // output lies within [−Vf, vin + V_bd] (re-conduction from a blocked inductor is
+                // not modelled).
+                self.blocked = true;
+                Topology::Blocked
+            }
+        }
+    }
+
+    /// Saturation region of the current state: by value, or as recorded at `|il| = isat`.
+    fn region(&self) -> i8 {
+        let (il, isat) = (self.x[0], self.params.isat);
+        if self.params.inductor_saturation == 0.0 {
+            0
+        } else if il > isat {
+            1
+        } else if il < -isat {
+            -1
+        } else if il.abs() < isat {
+            0
+        } else {
+            self.sat_region
+        }
+    }
+
+    /// The circuit and switch-node voltage of `topology` for a piece of length `tau`.
+    fn configure(&self, topology: Topology, tau: f64) -> (Key, f64) {
+        let p = &self.params;
+        let vin = self.inputs.vin;
+        let r_switch = p.rl + p.switch_resistance;
+        let (r, u_sw) = match topology {
+            Topology::High => (r_switch, vin),
+            Topology::Low => (r_switch, 0.0),
+            Topology::Averaged => (r_switch, self.latched_duty * vin),
+            Topology::LowDiode => (p.rl, -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() }),
+            Topology::HighDiode => (p.rl, vin + p.body_diode_drop()),
+            Topology::Blocked => (p.rl, 0.0),
+        };
+        let blocked = topology == Topology::Blocked;
+        let l = if !blocked && self.region() != 0 { p.l * (1.0 - p.inductor_saturation) } else { p.l };
+        let key = Key { tau: tau.to_bits(), r: r.to_bits(), l: l.to_bits(), cl: self.cl_now.to_bits(), blocked };
+        (key, u_sw)
+    }
+
+    /// Levels of `il` whose crossing ends the piece, each with the side (+1 above, −1 below)
+    /// the current lies on now.
+    fn thresholds(&self, topology: Topology) -> ([(f64, f64); 3], usize) {
+        let mut out = [(0.0, 0.0); 3];
+        let mut n = 0;
+        match topology {
+            Topology::Blocked => return (out, 0),
+            Topology::LowDiode => {
+                out[0] = (0.0, 1.0);
+                n = 1;
+            }
+            Topology::HighDiode => {
+                out[0] = (0.0, -1.0);
+                n = 1;
+            }
+            _ => {}
+        }
+        if self.params.inductor_saturation > 0.0 {
+            let isat = self.params.isat;
+            match self.region() {
+                1 => out[n] = (isat, 1.0),
+                -1 => out[n] = (-isat, -1.0),
+                _ => {
+                    out[n] = (isat, -1.0);
+                    n += 1;
+                    out[n] = (-isat, 1.0);
+                }
+            }
+            n += 1;
+        }
+        (out, n)
+    }
+
+    /// Advances `[x; z]` over `tau` seconds of one gate interval, splitting at state events.
+    fn advance(&mut self, tau: f64, gate: Gate) {
         if tau <= 0.0 {
             return;
         }
-        let piece = self.piece(tau);
-        let xi = nalgebra::Vector6::new(self.x[0], self.x[1], self.x[2], self.z[0], self.z[1], self.z[2]);
-        let next = piece.phi * xi + piece.gamma * Vector2::new(u_sw, self.inputs.io);
-        self.x = next.fixed_rows::<3>(0).into_owned();
-        self.z = next.fixed_rows::<3>(3).into_owned();
+        let io = self.inputs.io;
+        self.io_held = io;
+        self.io_integral += io * tau;
+        if gate != Gate::Off {
+            self.blocked = false;
+        }
+        let mut left = tau;
+        for event in 0..=MAX_EVENTS {
+            let topology = self.topology(gate);
+            let (key, u_sw) = self.configure(topology, left);
+            let u = Vector2::new(u_sw, io);
+            // Only whole intervals repeat; the rest after a state event would churn the cache.
+            let next = if event == 0 {
+                let i = self.cached(key);
+                self.cache[i].apply(&self.x, &self.z, &u)
+            } else {
+                self.piece(key).apply(&self.x, &self.z, &u)
+            };
+            let (levels, n) = self.thresholds(topology);
+            let crossing = if n == 0 || event == MAX_EVENTS {
+                None
+            } else {
+                let lti = self.lti(&key);
+                first_crossing(&lti, &self.x, &u, left, next.0[0], &levels[..n], ROOT_TOL * self.params.period())
+            };
+            let Some((t, level)) = crossing else {
+                self.commit(&next);
+                return;
+            };
+            if t > 0.0 {
+                let at = self.piece(Key { tau: t.to_bits(), ..key }).apply(&self.x, &self.z, &u);
+                self.commit(&at);
+            }
+            self.x[0] = level;
+            if level == 0.0 {
+                self.blocked = true;
+            } else {
+                // Above isat when |il| keeps growing (the sign of dil/dt is the same for both
+                // inductances, so this does not depend on the region just left).
+                let lti = self.lti(&key);
+                let dil = derivative(&lti, &self.x, &u);
+                self.sat_region = if dil * level > 0.0 { level.signum() as i8 } else { 0 };
+            }
+            left -= t;
+            if left <= 0.0 {
+                return;
+            }
+        }
     }
 
-    fn piece(&mut self, tau: f64) -> Piece {
-        let bits = tau.to_bits();
-        if let Some(p) = self.cache.iter().find(|p| p.tau_bits == bits) {
-            return p.clone();
-        }
-        let d = self.params.full_lti().discretize(tau);
-        let mut phi = Phi::zeros();
-        let mut gamma = Gamma::zeros();
-        phi.fixed_view_mut::<3, 3>(0, 0).copy_from(&d.ad);
-        phi.fixed_view_mut::<3, 3>(3, 0).copy_from(&d.ia);
-        phi.fixed_view_mut::<3, 3>(3, 3).fill_with_identity();
-        gamma.fixed_view_mut::<3, 2>(0, 0).copy_from(&d.bd);
-        gamma.fixed_view_mut::<3, 2>(3, 0).copy_from(&d.ib);
-        let piece = Piece { tau_bits: bits, phi, gamma };
-        if self.cache.len() < CACHE_SLOTS {
-            self.cache.push(piece.clone());
-        } else {
-            self.cache[self.next_slot] = piece.clone();
-            self.next_slot = (self.next_slot + 1) % CACHE_SLOTS;
-        }
+    fn commit(&mut self, (x, z): &(Vector4<f64>, Vector4<f64>)) {
+        self.x = *x;
+        self.z = *z;
+    }
+
+    /// The continuous circuit of a piece.
+    fn lti(&self, key: &Key) -> Lti {
+        self.params.piece_lti(f64::from_bits(key.r), f64::from_bits(key.l), f64::from_bits(key.cl), key.blocked)
+    }
+
+    /// Exact transition over the piece `key`.
+    fn piece(&self, key: Key) -> Piece {
+        let d = self.lti(&key).discretize(f64::from_bits(key.tau));
+        let n = d.ad.nrows();
+        let mut piece = Piece { key, ad: Mat::zeros(), bd: Inp::zeros(), ia: Mat::zeros(), ib: Inp::zeros() };
+        piece.ad.view_mut((0, 0), (n, n)).copy_from(&d.ad);
+        piece.bd.view_mut((0, 0), (n, 2)).copy_from(&d.bd);
+        piece.ia.view_mut((0, 0), (n, n)).copy_from(&d.ia);
+        piece.ib.view_mut((0, 0), (n, 2)).copy_from(&d.ib);
         piece
     }
+
+    /// Index of the cached transition for `key`, computing it on a miss.
+    fn cached(&mut self, key: Key) -> usize {
+        if let Some(i) = self.cache.iter().position(|p| p.key == key) {
+            return i;
+        }
+        let piece = self.piece(key);
+        if self.cache.len() < CACHE_SLOTS {
+            self.cache.push(piece);
+            self.cache.len() - 1
+        } else {
+            let i = self.next_slot;
+            self.cache[i] = piece;
+            self.next_slot = (i + 1) % CACHE_SLOTS;
+            i
+        }
+    }
+}
+
+/// `dil/dt` of the circuit `lti` at state `x` with inputs `u`.
+fn derivative(lti: &Lti, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
+    let n = lti.states();
+    (0..n).map(|j| lti.a[(0, j)] * x[j]).sum::<f64>() + lti.b[(0, 0)] * u[0] + lti.b[(0, 1)] * u[1]
+}
+
+/// `il(t)` and `dil/dt(t)` on the exact solution from `x0` with held inputs `u`:
+/// `x(t) = e^{At}·x0 + Γ(t)·u` from the exponential of `[[A, B], [0, 0]]·t`.
+fn il_at(lti: &Lti, x0: &Vector4<f64>, u: &Vector2<f64>, t: f64) -> (f64, f64) {
+    let n = lti.states();
+    let mut g = DMatrix::zeros(n + 2, n + 2);
+    g.view_mut((0, 0), (n, n)).copy_from(&lti.a);
+    g.view_mut((0, n), (n, 2)).copy_from(&lti.b);
+    let e = (g * t).exp();
+    let mut x = Vector4::zeros();
+    for i in 0..n {
+        x[i] = (0..n).map(|j| e[(i, j)] * x0[j]).sum::<f64>() + e[(i, n)] * u[0] + e[(i, n + 1)] * u[1];
+    }
+    (x[0], derivative(lti, &x, u))
+}
+
+/// The earliest instant in `(0, tau]` at which `il` reaches one of `levels` (each given with
+/// the side `s` it starts on, so that `s·(il − level) ≥ 0` now), with that level.
+///
+/// A crossing is bracketed by the sign of `s·(il − level)` at the piece end, or, when the
+/// current first moves towards the level and then away (an extremum inside the piece), by the
+/// value at the extremum, found by bisection on `dil/dt`. Within one piece `il` is a smooth
+/// sum of exponentials far slower than the period (at most one extremum), which is what this
+/// relies on. The root is polished by Newton iteration kept inside the bracket.
+fn first_crossing(
+    lti: &Lti,
+    x0: &Vector4<f64>,
+    u: &Vector2<f64>,
+    tau: f64,
+    il_end: f64,
+    levels: &[(f64, f64)],
+    tol: f64,
+) -> Option<(f64, f64)> {
+    let mut best: Option<(f64, f64)> = None;
+    let mut slopes: Option<(f64, f64)> = None;
+    for &(level, side) in levels {
+        let f = |t: f64| {
+            let (il, dil) = il_at(lti, x0, u, t);
+            (side * (il - level), side * dil)
+        };
+        let hi = if side * (il_end - level) <= 0.0 {
+            tau
+        } else {
+            let (d0, d1) = *slopes.get_or_insert_with(|| (derivative(lti, x0, u), il_at(lti, x0, u, tau).1));
+            let (d0, d1) = (side * d0, side * d1);
+            if !(d0 < 0.0 && d1 > 0.0) {
+                continue;
+            }
+            // The extremum of il: dil/dt changes sign once inside.
+            let (mut lo, mut up) = (0.0, tau);
+            while up - lo > tol {
+                let mid = 0.5 * (lo + up);
+                if f(mid).1 < 0.0 { lo = mid } else { up = mid }
+            }
+            if f(up).0 > 0.0 {
+                continue;
+            }
+            up
+        };
+        let t = newton(f, hi, side * (x0[0] - level), tol);
+        if best.is_none_or(|(b, _)| t < b) {
+            best = Some((t, level));
+        }
+    }
+    best
+}
+
+/// Root of `f` in `[0, hi]` with `f(0) = f0 ≥ 0 ≥ f(hi)`: Newton steps from the secant guess,
+/// replaced by bisection whenever they leave the bracket.
+fn newton(f: impl Fn(f64) -> (f64, f64), hi: f64, f0: f64, tol: f64) -> f64 {
+    let (mut lo, mut up) = (0.0, hi);
+    let f_hi = f(hi).0;
+    let mut t = if f0 - f_hi > 0.0 { hi * f0 / (f0 - f_hi) } else { hi };
+    for _ in 0..100 {
+        let (v, dv) = f(t);
+        if v > 0.0 {
+            lo = t;
+        } else {
+            up = t;
+        }
+        if v == 0.0 || up - lo <= tol {
+            return t;
+        }
+        let mut next = t - v / dv;
+        if !(next > lo && next < up) {
+            next = 0.5 * (lo + up);
+        }
+        if (next - t).abs() <= tol {
+            return next;
+        }
+        t = next;
+    }
+    t
 }
 
 #[cfg(test)]
 #[path = "converter_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "effects_tests.rs"]
+mod effects_tests;

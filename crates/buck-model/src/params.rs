@@ -2,8 +2,15 @@ use serde::{Deserialize, Serialize};
 
 use crate::lti::Lti;
 
-/// Circuit parameters of the buck power stage (SI units). Defaults are the BMR450 thesis values.
+/// Circuit parameters of the buck power stage (SI units). Defaults are the BMR450 thesis values
+/// with every non-ideal effect off.
+///
+/// The effect fields carry the names of the design's effects table (a contract with the CLI and
+/// JSON). `switch_resistance`, `load_esr`, `esl`, `inductor_saturation` and `cap_dc_bias` apply
+/// in both modes; `diode_drop`, `dcm` and `dead_time` describe the switching of the half bridge
+/// and apply in [`Mode::Switched`] only (the averaged model ignores them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Params {
     /// Inductance `L` [H].
     pub l: f64,
@@ -17,11 +24,57 @@ pub struct Params {
     pub cl: f64,
     /// Switching frequency `fs` [Hz].
     pub fs: f64,
+    /// `switch_resistance`: on-resistance of each switch of the synchronous half bridge [Ω],
+    /// in series with `RL` while a switch (not a diode) conducts.
+    pub switch_resistance: f64,
+    /// `diode_drop`: forward drop of the freewheeling diode [V]. Positive makes the buck
+    /// asynchronous (the low side is a diode); also the body-diode drop during dead time.
+    pub diode_drop: f64,
+    /// `dcm`: asynchronous buck with an ideal or `diode_drop` diode as the low side, so that the
+    /// inductor current stops at zero (discontinuous conduction) instead of reversing.
+    pub dcm: bool,
+    /// `dead_time`: both switches off after the high-side turn-off and before its turn-on [s].
+    pub dead_time: f64,
+    /// `load_esr`: series resistance of `Cl` [Ω]; `vout` is then the node voltage.
+    pub load_esr: f64,
+    /// `esl`: series inductance of the main capacitor branch `C`, `Rc` [H].
+    pub esl: f64,
+    /// `inductor_saturation`: fraction of `L` lost above `isat` (incremental inductance
+    /// `L·(1 − inductor_saturation)` for `|il| > isat`).
+    pub inductor_saturation: f64,
+    /// Saturation current of the inductor [A].
+    pub isat: f64,
+    /// `cap_dc_bias`: fraction of `Cl` lost at `cap_rated_voltage`:
+    /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)`, held at its rated-voltage value above it.
+    pub cap_dc_bias: f64,
+    /// Rated voltage of `Cl` for `cap_dc_bias` [V].
+    pub cap_rated_voltage: f64,
 }
+
+/// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
+/// diode).
+pub const BODY_DIODE_DROP: f64 = 0.7;
 
 impl Default for Params {
     fn default() -> Self {
-        Self { l: 3.3e-6, rl: 0.1, c: 100e-6, rc: 0.1, cl: 10e-6, fs: 330e3 }
+        Self {
+            l: 3.3e-6,
+            rl: 0.1,
+            c: 100e-6,
+            rc: 0.1,
+            cl: 10e-6,
+            fs: 330e3,
+            switch_resistance: 0.0,
+            diode_drop: 0.0,
+            dcm: false,
+            dead_time: 0.0,
+            load_esr: 0.0,
+            esl: 0.0,
+            inductor_saturation: 0.0,
+            isat: 10.0,
+            cap_dc_bias: 0.0,
+            cap_rated_voltage: 16.0,
+        }
     }
 }
 
@@ -40,6 +93,113 @@ impl Params {
     /// Switching period `T = 1/fs` [s].
     pub fn period(&self) -> f64 {
         1.0 / self.fs
+    }
+
+    /// Whether the low side is a diode (asynchronous buck): `dcm` or a positive `diode_drop`.
+    pub fn asynchronous(&self) -> bool {
+        self.dcm || self.diode_drop > 0.0
+    }
+
+    /// Drop of the body diodes that conduct during dead time [V]: `diode_drop` when positive,
+    /// else [`BODY_DIODE_DROP`].
+    pub fn body_diode_drop(&self) -> f64 {
+        if self.diode_drop > 0.0 { self.diode_drop } else { BODY_DIODE_DROP }
+    }
+
+    /// Load capacitance at the voltage `v` across it under `cap_dc_bias` [F].
+    pub fn cl_at(&self, v: f64) -> f64 {
+        if self.cap_dc_bias == 0.0 {
+            return self.cl;
+        }
+        let r = (v / self.cap_rated_voltage).powi(2).min(1.0);
+        self.cl * (1.0 - self.cap_dc_bias * r)
+    }
+
+    /// Number of circuit states: 3 (`[il, vc, vcl]`), or 4 with the branch current of `C`
+    /// when `esl > 0`.
+    pub fn states(&self) -> usize {
+        if self.esl > 0.0 { 4 } else { 3 }
+    }
+
+    /// The linear circuit of one piece: states `[il, vc, vcl]` (plus the current `ic` of the
+    /// `C` branch when `esl > 0`), inputs `[u_sw, io]`, with the series resistance `r` and the
+    /// incremental inductance `l` of the inductor path and the load capacitance `cl` in force.
+    /// `blocked` clamps `il` at zero (both switches and the diode off).
+    ///
+    /// Without `esl`, the node voltage is `vn = vcl + load_esr·icl` with the current into `Cl`
+    /// `icl = k·(il − io + (vc − vcl)/Rc)`, `k = Rc/(Rc + load_esr)`:
+    ///
+    /// ```text
+    /// L  dil/dt  = u_sw − r·il − vn
+    /// C  dvc/dt  = (vn − vc)/Rc
+    /// Cl dvcl/dt = icl
+    /// ```
+    ///
+    /// With `load_esr = 0` this is [`Params::full_lti`] entry for entry (bit-identical). With
+    /// `esl = Lc > 0` the branch current is a state and `vn = vcl + load_esr·(il − ic − io)`:
+    ///
+    /// ```text
+    /// L  dil/dt  = u_sw − r·il − vn
+    /// C  dvc/dt  = ic
+    /// Cl dvcl/dt = il − ic − io
+    /// Lc dic/dt  = vn − Rc·ic − vc
+    /// ```
+    pub fn piece_lti(&self, r: f64, l: f64, cl: f64, blocked: bool) -> Lti {
+        let Self { c, rc, load_esr: re, esl, .. } = *self;
+        let mut lti = if esl > 0.0 {
+            // vn = [re, 0, 1, −re]·x − re·io
+            Lti::new(
+                4,
+                2,
+                &[
+                    (-r - re) / l, 0.0, -1.0 / l, re / l, //
+                    0.0, 0.0, 0.0, 1.0 / c, //
+                    1.0 / cl, 0.0, 0.0, -1.0 / cl, //
+                    re / esl, -1.0 / esl, 1.0 / esl, (-rc - re) / esl,
+                ],
+                &[
+                    1.0 / l, re / l, //
+                    0.0, 0.0, //
+                    0.0, -1.0 / cl, //
+                    0.0, -re / esl,
+                ],
+            )
+        } else {
+            let k = rc / (rc + re);
+            // re·icl = s·(il − io + (vc − vcl)/Rc) with s = re·k: the part of vn above vcl.
+            let s = re * k;
+            Lti::new(
+                3,
+                2,
+                &[
+                    (-r - s) / l, -(s / rc) / l, (-1.0 + s / rc) / l, //
+                    s / (rc * c), -1.0 / (rc * c) + s / (rc * rc * c), 1.0 / (rc * c) - s / (rc * rc * c), //
+                    k / cl, k / (rc * cl), -k / (rc * cl),
+                ],
+                &[
+                    1.0 / l, s / l, //
+                    0.0, -s / (rc * c), //
+                    0.0, -k / cl,
+                ],
+            )
+        };
+        if blocked {
+            lti.a.row_mut(0).fill(0.0);
+            lti.b.row_mut(0).fill(0.0);
+        }
+        lti
+    }
+
+    /// The output (node) voltage `vout = cx·x + d_io·io` of [`Params::piece_lti`]'s states:
+    /// `(cx, d_io)`, `cx` padded with zeros to 4 entries.
+    pub fn vout_map(&self) -> ([f64; 4], f64) {
+        let Self { rc, load_esr: re, esl, .. } = *self;
+        if esl > 0.0 {
+            ([re, 0.0, 1.0, -re], -re)
+        } else {
+            let s = re * (rc / (rc + re));
+            ([s, s / rc, 1.0 - s / rc, 0.0], -s)
+        }
     }
 
     /// The averaged third-order model: states `[il, vc, vo]`, inputs `[u_sw, io]`.
@@ -86,9 +246,10 @@ impl Params {
     }
 
     /// DC operating point `[il, vc, vo]` of the averaged model in continuous conduction:
-    /// `il = io`, `vc = vo = d·vin − RL·io`.
+    /// `il = io`, `vc = vo = d·vin − (RL + switch_resistance)·io` (no current in the capacitor
+    /// branches, so neither `load_esr` nor `esl` shifts it).
     pub fn steady_state(&self, duty: f64, vin: f64, io: f64) -> [f64; 3] {
-        let vo = duty * vin - self.rl * io;
+        let vo = duty * vin - (self.rl + self.switch_resistance) * io;
         [io, vo, vo]
     }
 }

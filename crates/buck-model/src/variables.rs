@@ -43,6 +43,16 @@ pub enum VarId {
     AdcNoise,
     NoiseSeed,
     DpwmBits,
+    SwitchResistance,
+    DiodeDrop,
+    Dcm,
+    DeadTime,
+    LoadEsr,
+    Esl,
+    InductorSaturation,
+    Isat,
+    CapDcBias,
+    CapRatedVoltage,
 }
 
 /// FMI causality.
@@ -190,6 +200,23 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::AdcNoise, "adc_noise", Parameter, "V", (0.0, 10.0), Some(0.0), "Standard deviation of white sensor noise on vout at the ADC"),
     integer(VarId::NoiseSeed, "noise_seed", (0, i32::MAX), 1, "Seed of the ADC noise"),
     integer(VarId::DpwmBits, "dpwm_bits", (0, 24), 0, "Resolution of the DPWM duty register (0 = ideal)"),
+    real(VarId::SwitchResistance, "switch_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "On-resistance of each switch, in series with RL while a switch conducts (both modes)"),
+    real(VarId::DiodeDrop, "diode_drop", Parameter, "V", (0.0, 5.0), Some(0.0), "Forward drop of the freewheeling diode; > 0 makes the buck asynchronous with DCM (switched mode only)"),
+    Variable {
+        id: VarId::Dcm,
+        name: "dcm",
+        causality: Parameter,
+        variability: Variability::Fixed,
+        ty: Type::Boolean { start: false },
+        description: "Asynchronous buck (diode low side, also with diode_drop = 0): il stops at 0 in discontinuous conduction (switched mode only)",
+    },
+    real(VarId::DeadTime, "dead_time", Parameter, "s", (0.0, 1e-5), Some(0.0), "Both switches off after the high-side turn-off and before its turn-on; body diodes conduct (switched mode only)"),
+    real(VarId::LoadEsr, "load_esr", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Series resistance of Cl; vout is then the output node voltage (both modes)"),
+    real(VarId::Esl, "esl", Parameter, "H", (0.0, 1e-6), Some(0.0), "Series inductance of the C branch (both modes)"),
+    real(VarId::InductorSaturation, "inductor_saturation", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of L lost for |il| > isat (both modes)"),
+    real(VarId::Isat, "isat", Parameter, "A", (1e-3, 1e4), Some(10.0), "Saturation current of the inductor"),
+    real(VarId::CapDcBias, "cap_dc_bias", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), re-evaluated at each period start (both modes)"),
+    real(VarId::CapRatedVoltage, "cap_rated_voltage", Parameter, "V", (0.1, 1000.0), Some(16.0), "Rated voltage of Cl for cap_dc_bias"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
@@ -201,6 +228,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("H", [1, 2, -2, -2]),
     ("F", [-1, -2, 4, 2]),
     ("Hz", [0, 0, -1, 0]),
+    ("s", [0, 0, 1, 0]),
     ("1/V", [-1, -2, 3, 1]),
 ];
 

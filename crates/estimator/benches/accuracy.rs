@@ -161,7 +161,8 @@ fn root() -> PathBuf {
 /// The pythonfmu and qfmu buck FMUs of `tests/thirdparty` (built by its `build.sh`), with the
 /// Cl their sources hide. Their variables are mapped onto the estimator's roles.
 fn third_party(root: &std::path::Path) {
-    let targets: [(&str, f64, &[(&str, &str)]); 2] = [
+    type Target<'a> = (&'a str, f64, &'a [(&'a str, &'a str)]);
+    let targets: [Target; 2] = [
         ("BuckPy.fmu (pythonfmu)", 4.7e-6, &[("duty", "D"), ("io", "Iload"), ("vin", "Vin"), ("vout", "Vout"), ("il", "IL")]),
         ("BuckQ.fmu (qfmu)", 2.2e-6, &[("duty", "u1"), ("io", "u2"), ("vout", "y1"), ("il", "y2")]),
     ];

@@ -225,10 +225,7 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
         let u: [f64; NU] = std::array::from_fn(|j| model.u[k * NU + j]);
         let mut e = [0.0; NY];
         for o in 0..NY {
-            let mut yh = dot(&m.d[o], &u);
-            for i in 0..NX {
-                yh += m.h[o][i] * x[i];
-            }
+            let yh = dot(&m.h[o], &x) + dot(&m.d[o], &u);
             e[o] = model.y[k * NY + o] - yh;
             sum_sq[o] += e[o] * e[o];
             cost += (w[o] * e[o]) * (w[o] * e[o]);
@@ -239,20 +236,12 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
         if jacobian {
             for c in 0..np {
                 for o in 0..NY {
-                    let mut v = 0.0;
-                    for i in 0..NX {
-                        v -= m.h[o][i] * s[c][i];
-                    }
-                    de[c][o] = v;
+                    de[c][o] = -dot(&m.h[o], &s[c]);
                 }
             }
             for (f, dm) in derivs[j].iter().enumerate() {
                 for o in 0..NY {
-                    let mut v = dot(&dm.d[o], &u);
-                    for i in 0..NX {
-                        v += dm.h[o][i] * x[i];
-                    }
-                    de[f][o] -= v;
+                    de[f][o] -= dot(&dm.h[o], &x) + dot(&dm.d[o], &u);
                 }
             }
             for o in 0..NY {
@@ -269,14 +258,7 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
         // State update x̂ ← F x̂ + G u + K e, and the sensitivities with it.
         let mut xn = [0.0; NX];
         for i in 0..NX {
-            let mut v = dot(&m.g[i], &u);
-            for jx in 0..NX {
-                v += m.f[i][jx] * x[jx];
-            }
-            for o in 0..NY {
-                v += k_gain[i][o] * e[o];
-            }
-            xn[i] = v;
+            xn[i] = dot(&m.f[i], &x) + dot(&m.g[i], &u) + dot(&k_gain[i], &e);
         }
         if jacobian {
             // Column c of the new sensitivity depends only on column c of the old one, so the
@@ -284,23 +266,12 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
             for c in 0..np {
                 let old = s[c];
                 for i in 0..NX {
-                    let mut v = 0.0;
-                    for jx in 0..NX {
-                        v += m.f[i][jx] * old[jx];
-                    }
-                    for o in 0..NY {
-                        v += k_gain[i][o] * de[c][o];
-                    }
-                    s[c][i] = v;
+                    s[c][i] = dot(&m.f[i], &old) + dot(&k_gain[i], &de[c]);
                 }
             }
             for (f, dm) in derivs[j].iter().enumerate() {
                 for i in 0..NX {
-                    let mut v = dot(&dm.g[i], &u);
-                    for jx in 0..NX {
-                        v += dm.f[i][jx] * x[jx];
-                    }
-                    s[f][i] += v;
+                    s[f][i] += dot(&dm.f[i], &x) + dot(&dm.g[i], &u);
                 }
             }
             if lay.gain {
