@@ -63,32 +63,48 @@ def fmu_path() -> Path:
     return path
 
 
-@pytest.fixture(scope="session")
-def trajectory_bin() -> Path:
-    """The `trajectory` example of buck-model (the Rust model in-process, same code as the FMU).
-
-    Always goes through `cargo build` (a no-op when up to date) so that a stale binary from an
-    older checkout never gets compared with a freshly built FMU; the executable's path comes from
-    cargo's JSON messages, so a custom `CARGO_TARGET_DIR` works too.
-    """
+def cargo_executable(package: str, target: str, *extra: str) -> Path:
+    """`cargo build --release` of one executable (a no-op when up to date), so a stale binary
+    from an older checkout is never tested; its path comes from cargo's JSON messages, so a
+    custom `CARGO_TARGET_DIR` works too."""
     proc = subprocess.run(
-        [
-            _cargo(), "build", "--release", "-p", "buck-model", "--example", "trajectory",
-            "--message-format=json",
-        ],
+        [_cargo(), "build", "--release", "-p", package, *extra, "--message-format=json"],
         cwd=REPO, capture_output=True, text=True, check=False,
     )
     if proc.returncode != 0:
-        pytest.fail(f"building the trajectory example failed:\n{proc.stderr[-4000:]}")
+        pytest.fail(f"building {target} failed:\n{proc.stderr[-4000:]}")
     for line in proc.stdout.splitlines():
         try:
             msg = json.loads(line)
         except json.JSONDecodeError:
             continue
-        if msg.get("reason") == "compiler-artifact" and msg.get("target", {}).get("name") == "trajectory":
-            if msg.get("executable"):
-                return Path(msg["executable"])
-    pytest.fail("cargo did not report the trajectory executable")
+        if (msg.get("reason") == "compiler-artifact" and msg.get("target", {}).get("name") == target
+                and msg.get("executable")):
+            return Path(msg["executable"])
+    pytest.fail(f"cargo did not report the {target} executable")
+
+
+@pytest.fixture(scope="session")
+def trajectory_bin() -> Path:
+    """The `trajectory` example of buck-model (the Rust model in-process, same code as the FMU)."""
+    return cargo_executable("buck-model", "trajectory", "--example", "trajectory")
+
+
+@pytest.fixture(scope="session")
+def buckid_bin() -> Path:
+    """The `buckid` command line."""
+    return cargo_executable("buckid", "buckid", "--bin", "buckid")
+
+
+def assert_fmutool_clean(fmu: Path, fmutool: str) -> None:
+    """`fmutool -input FMU -check` exits 0, prints no ERROR line, finds the FMU compliant with
+    FMI 2.0 and reports no semantic error."""
+    proc = subprocess.run([fmutool, "-input", str(fmu), "-check"], capture_output=True, text=True)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert not [line for line in out.splitlines() if "ERROR" in line], out
+    assert "seems to be compliant with FMI-2.0" in out, out
+    assert "No semantic error" in out, out
 
 
 @pytest.fixture(scope="session")

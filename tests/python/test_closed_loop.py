@@ -44,15 +44,14 @@ def test_closed_loop_fmu_matches_rust_model(fmu_dir, model_description, trajecto
     assert np.ptp(fmu[:, 3]) > 0.03, "the dither does not reach the switch"
 
 
-def test_cli_identifies_cl_in_closed_loop(fmu_path, repo_root, tmp_path):
+def test_cli_identifies_cl_in_closed_loop(fmu_path, buckid_bin, tmp_path):
     """`buckid identify --closed-loop` on our FMU (PID with one period of delay, 2 mV ADC noise in
     the loop, 0.2 A load disturbance): the true Cl lies in the CI95, the report names the
     excitation, and the Kalman predictor was used."""
-    subprocess.run(["cargo", "build", "--release", "-q", "-p", "buckid"], cwd=repo_root, check=True)
     out = tmp_path / "cl.json"
     cl = 22e-6
     proc = subprocess.run(
-        [str(repo_root / "target/release/buckid"), "identify", "--fmu", str(fmu_path), "--closed-loop",
+        [str(buckid_bin), "identify", "--fmu", str(fmu_path), "--closed-loop",
          "--set", f"Cl={cl}", "--set", "delay=1", "--set", "adc_noise=2e-3", "--load-noise", "0.2",
          "--json", str(out)],
         capture_output=True, text=True, check=False,

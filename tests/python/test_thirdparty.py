@@ -14,9 +14,7 @@ quirks of both tools are documented in the files under `tests/thirdparty/`.
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
 import subprocess
 import time
 from pathlib import Path
@@ -27,6 +25,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
+from conftest import assert_fmutool_clean
 from fmu_harness import AVERAGED, CALLBACKS, RL, T, U, prbs_duty, reference
 
 REPO = Path(__file__).resolve().parents[2]
@@ -110,29 +109,6 @@ def extracted(tmp_path_factory):
     return get
 
 
-@pytest.fixture(scope="session")
-def buckid_bin() -> Path:
-    """`cargo build --release -p buckid` (a no-op when up to date); the executable from cargo's
-    JSON messages, so a custom CARGO_TARGET_DIR works too."""
-    cargo = os.environ.get("CARGO") or shutil.which("cargo")
-    if cargo is None:
-        pytest.fail("cargo is not on PATH: it is needed to build the buckid CLI")
-    proc = subprocess.run(
-        [cargo, "build", "--release", "--locked", "-p", "buckid", "--message-format=json"],
-        cwd=REPO, capture_output=True, text=True, check=False,
-    )
-    if proc.returncode != 0:
-        pytest.fail(f"building buckid failed:\n{proc.stderr[-4000:]}")
-    for line in proc.stdout.splitlines():
-        try:
-            msg = json.loads(line)
-        except json.JSONDecodeError:
-            continue
-        if (msg.get("reason") == "compiler-artifact" and msg.get("target", {}).get("name") == "buckid"
-                and msg.get("executable")):
-            return Path(msg["executable"])
-    pytest.fail("cargo did not report the buckid executable")
-
 
 # ---- Driving with fmpy ----------------------------------------------------------------------------
 class Slave:
@@ -209,11 +185,7 @@ def test_fmpy_validate_finds_no_problem(target):
 
 
 def test_fmutool_check_is_clean(target, fmutool):
-    proc = subprocess.run([fmutool, "-input", str(target), "-check"], capture_output=True, text=True)
-    out = proc.stdout + proc.stderr
-    assert proc.returncode == 0, out
-    assert not [line for line in out.splitlines() if "ERROR" in line], out
-    assert "No semantic error" in out, out
+    assert_fmutool_clean(target, fmutool)
 
 
 def test_cl_is_hidden(target, kind):
