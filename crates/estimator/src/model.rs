@@ -306,6 +306,17 @@ impl Model {
         Ok(Self { structure, sampling, outputs: outputs.to_vec(), free: free.to_vec(), levels, level_of, u, y, period })
     }
 
+    /// The first `n` samples only (e.g. to rank start values cheaply).
+    pub fn prefix(&self, n: usize) -> Model {
+        let n = n.min(self.len());
+        Model {
+            level_of: self.level_of[..n].to_vec(),
+            u: self.u[..n * self.nu()].to_vec(),
+            y: self.y[..n * self.ny()].to_vec(),
+            ..self.clone()
+        }
+    }
+
     /// Number of states.
     pub fn nx(&self) -> usize {
         if self.structure == Structure::Reduced { 2 } else { 3 }

@@ -312,6 +312,9 @@ fn with_free(nominal: &Params, free: &[Free], logs: &[f64]) -> Params {
     p
 }
 
+/// Samples used to rank the grid of start values.
+const GRID_SAMPLES: usize = 1000;
+
 /// Grid of start values for Cl [F], log-spaced over 0.1–200 µF (a half decade apart).
 const CL_GRID: [f64; 8] = [0.1e-6, 0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6, 300e-6];
 
@@ -365,12 +368,14 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
     if let (Some(ci), None) = (cl_index, &opts.guess) {
         // Coarse grid over Cl from the DC state: a wrong initial state only spoils the first
         // few dozen samples (the LC mode decays within ~10 periods), not the ranking.
+        // Ranking needs no more than the first GRID_SAMPLES samples.
+        let head = model.prefix(GRID_SAMPLES);
         let mut best = (f64::INFINITY, logs[ci]);
         for cl in CL_GRID {
             logs[ci] = cl.ln();
-            let levels = model.levels(&with_free(nominal, &model.free, &logs), false);
+            let levels = head.levels(&with_free(nominal, &head.free, &logs), false);
             p[..nf].copy_from_slice(&logs);
-            let cost = evaluate(model, &levels, lay, &p, &weights, false, false, None).cost;
+            let cost = evaluate(&head, &levels, lay, &p, &weights, false, false, None).cost;
             if cost < best.0 {
                 best = (cost, logs[ci]);
             }
@@ -389,6 +394,7 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
     // Two passes when there are several outputs: the second with weights 1/σ from the first.
     let passes = if lay.ny > 1 { 3 } else { 1 };
     let mut last = None;
+    let mut final_eval = None;
     for _ in 0..passes {
         let (q, it, conv, eval) = levenberg_marquardt(model, nominal, lay, p, &weights, opts.max_iterations)?;
         p = q;
@@ -397,11 +403,16 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
         let sig: Vec<f64> = eval.sum_sq.iter().map(|s| (s / model.len() as f64).sqrt()).collect();
         weights = sig.iter().map(|s| 1.0 / s.max(1e-15)).collect();
         last = Some(sig);
+        final_eval = Some(eval);
     }
     let sigma = last.unwrap_or_default();
     let params = with_free(nominal, &model.free, &p[..nf]);
-    let levels = model.levels(&params, true);
-    let eval = evaluate(model, &levels, lay, &p, &weights, true, true, None);
+    // With one output the covariance s²(JᵀJ)⁻¹ does not depend on the weight's scale, so the
+    // last iteration's normal equations serve; with several, re-evaluate at the final weights.
+    let eval = match final_eval {
+        Some(e) if lay.ny == 1 => e,
+        _ => evaluate(model, &model.levels(&params, true), lay, &p, &weights, true, true, None),
+    };
     let s2 = eval.cost / (n_obs - np) as f64;
     let cov_all = eval
         .jtj
