@@ -4,7 +4,7 @@
 //! valid for the stated lengths, a component it got from `fmi2Instantiate` and has not freed,
 //! and does not call into one instance from two threads at once. Null pointers are checked
 //! here anyway and rejected with `fmi2Error`.
-#![allow(clippy::missing_safety_doc, non_snake_case)]
+#![allow(unsafe_code, clippy::missing_safety_doc, non_snake_case)]
 
 use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};

@@ -5,6 +5,7 @@
 //! to `fmi2Status`. [`instance`] is the safe FMI state machine around a
 //! [`buck_model::Converter`]; [`description`] derives `modelDescription.xml` from the variable
 //! table, so the XML, the value references and the GUID cannot disagree.
+#![deny(unsafe_code)] // allowed in `ffi` alone
 
 pub mod description;
 pub mod ffi;
