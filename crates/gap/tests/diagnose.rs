@@ -64,15 +64,3 @@ fn late_duty_is_delay() {
     c.set(VarId::Delay, 1.0).unwrap();
     check(&data(c), "delay");
 }
-
-#[test]
-#[ignore = "prints a diagnosis for inspection"]
-fn print_switched_diagnosis() {
-    let d = data(plant(Params { cl: CL, ..Params::default() }, Mode::Switched));
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions::default()).unwrap();
-    println!("verdict {} before {:.4}", dx.verdict, dx.gap_before.nrmse);
-    for e in &dx.effects {
-        println!("{:18} nrmse {:.4} shrink {:6.1}% dAIC {:9.1} LR {:?} sig {} params {:?} Cl {:.4} µF", e.name, e.nrmse_after, e.shrink_percent, e.delta_aic, e.lr_statistic.map(|x| x.round()), e.significant, e.params, e.cl.estimate * 1e6);
-    }
-    println!("{}", dx.location.summary);
-}
