@@ -57,9 +57,10 @@ pub struct EffectFit {
     pub nrmse_after: f64,
     /// How much of the held-out gap closed [%].
     pub shrink_percent: f64,
-    /// AIC difference against the nominal model (negative: better).
+    /// AIC difference against the model it extends (negative: better): the nominal averaged
+    /// model, or the PWM model once `switching_ripple` is significant.
     pub delta_aic: f64,
-    /// Likelihood-ratio statistic against the nominal model, for nested continuous effects.
+    /// Likelihood-ratio statistic against the model it extends, for nested continuous effects.
     pub lr_statistic: Option<f64>,
     /// Its 99 % critical value.
     pub lr_limit: Option<f64>,
@@ -115,32 +116,61 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 }
 
 /// Fits every modelled candidate; those whose fit fails (e.g. not identifiable) are left out.
+///
+/// Two stages: `switching_ripple` (the PWM model instead of the averaged one) is judged against
+/// the nominal model first. When it is significant the ripple may be in the data whatever else
+/// is, so every other candidate is fitted on the averaged and on the PWM model, and the better
+/// held-out fit is judged against the model it extends.
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
-    let base_opts = nominal_options(opts.holdout);
-    let mut trials: Vec<(&'static str, Trial)> = Vec::new();
+    let nominal_opts = nominal_options(opts.holdout);
+    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
+    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
+    let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, nrmse_before, cl_before);
 
-    // switching_ripple: the sampled-data PWM model instead of the averaged one.
-    if let Some(cand) = run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..base_opts.clone() }) {
-        trials.push(("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }));
+    let ripple = run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() })
+        .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }, base));
+    // Stage two: each other candidate on the averaged model and, when the ripple is
+    // significant, also on the PWM model; the better held-out fit counts, judged against its base.
+    let mut bases: Vec<(&Candidate, IdentifyOptions)> = vec![(base, nominal_opts.clone())];
+    if let Some((_, pwm)) = ripple.as_ref().filter(|r| r.0.significant) {
+        bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts }));
     }
+    let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
+    for (against, opts) in &bases {
+        for (name, trial) in effect_trials(data, nominal, opts) {
+            let score = trial.cand.validation.fit_simulation[0];
+            match best.iter_mut().find(|b| b.0 == name) {
+                Some(b) if b.1.cand.validation.fit_simulation[0] >= score => {}
+                Some(b) => *b = (name, trial, against),
+                None => best.push((name, trial, against)),
+            }
+        }
+    }
+    let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
+    out.extend(ripple.map(|r| r.0));
+    out
+}
+
+/// The candidates other than the structure: each one's fit on top of `base_opts`.
+fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) -> Vec<(&'static str, Trial)> {
+    let mut trials = Vec::new();
     // param_drift: one "known" value freed (the best of L, C, Rc).
     let drift = [Free::L, Free::C, Free::Rc]
         .into_iter()
         .filter_map(|f| run(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }).map(|c| (f, c)))
         .min_by(|a, b| b.1.validation.fit_simulation[0].total_cmp(&a.1.validation.fit_simulation[0]));
     if let Some((f, cand)) = drift {
-        let e = cand.fit.estimate(f.name()).copied();
         let mut params = BTreeMap::new();
         let mut ci95 = BTreeMap::new();
-        if let Some(e) = e {
+        if let Some(e) = cand.fit.estimate(f.name()).copied() {
             params.insert(f.name().to_string(), e.value);
             params.insert(format!("{}_nominal", f.name()), f.get(nominal));
             ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
         }
         trials.push(("param_drift", Trial { cand, params, ci95, extra: 1, discrete: false }));
     }
-    // switch_resistance: extra series resistance on top of RL.
-    // (A fitted RL below the nominal is not this effect: resistance is only ever added.)
+    // switch_resistance: extra series resistance on top of RL (a fitted RL below the nominal is
+    // not this effect: resistance is only ever added).
     if let Some(cand) = run(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() })
         && let Some(e) = cand.fit.estimate("RL").copied()
         && e.value > nominal.rl
@@ -157,41 +187,40 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
         trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, discrete: true }));
     }
-
-    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
-    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
-    let var = |c: &Candidate| c.fit.sigma[0].powi(2);
     trials
-        .into_iter()
-        .map(|(name, t)| {
-            let nrmse_after = 1.0 - t.cand.validation.fit_simulation[0] / 100.0;
-            let ln_ratio = (var(base) / var(&t.cand)).ln();
-            let lr = n_est as f64 * ln_ratio;
-            let delta_aic = -lr + 2.0 * t.extra as f64;
-            let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.discrete {
-                let limit = chi2_99(t.extra);
-                (Some(lr), Some(limit), lr > limit)
-            } else {
-                (None, None, delta_aic < -AIC_MARGIN)
-            };
-            let cl = t.cand.fit.estimate("Cl").copied();
-            EffectFit {
-                name,
-                params: t.params,
-                ci95: t.ci95,
-                cl: ClMove {
-                    estimate: cl.map_or(f64::NAN, |e| e.value),
-                    ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
-                    moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
-                },
-                nrmse_after,
-                shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
-                delta_aic,
-                lr_statistic,
-                lr_limit,
-                significant: passes && nrmse_after < nrmse_before,
-                residual: residual(&t.cand),
-            }
-        })
-        .collect()
+}
+
+/// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
+/// otherwise, and better on the held-out data); shrink and Cl movement against the nominal.
+fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> (EffectFit, Candidate) {
+    let var = |c: &Candidate| c.fit.sigma[0].powi(2);
+    let nrmse_after = 1.0 - t.cand.validation.fit_simulation[0] / 100.0;
+    let nrmse_against = 1.0 - against.validation.fit_simulation[0] / 100.0;
+    let lr = n_est as f64 * (var(against) / var(&t.cand)).ln();
+    let delta_aic = -lr + 2.0 * t.extra as f64;
+    let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.discrete {
+        let limit = chi2_99(t.extra);
+        (Some(lr), Some(limit), lr > limit)
+    } else {
+        (None, None, delta_aic < -AIC_MARGIN)
+    };
+    let cl = t.cand.fit.estimate("Cl").copied();
+    let fit = EffectFit {
+        name,
+        params: t.params,
+        ci95: t.ci95,
+        cl: ClMove {
+            estimate: cl.map_or(f64::NAN, |e| e.value),
+            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
+            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+        },
+        nrmse_after,
+        shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
+        delta_aic,
+        lr_statistic,
+        lr_limit,
+        significant: passes && nrmse_after < nrmse_against,
+        residual: residual(&t.cand),
+    };
+    (fit, t.cand)
 }

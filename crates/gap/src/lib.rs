@@ -86,6 +86,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let mut effects = candidates::fit_all(data, nominal, opts, &base, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
+    // The significant effect with the lowest held-out error (effects are sorted by it): an
+    // effect on top of the ripple-exact model beats the ripple alone only by explaining more.
     let verdict = effects
         .iter()
         .find(|e| e.significant && e.shrink_percent > 0.0)

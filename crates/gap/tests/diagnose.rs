@@ -64,3 +64,15 @@ fn late_duty_is_delay() {
     c.set(VarId::Delay, 1.0).unwrap();
     check(&data(c), "delay");
 }
+
+/// On switched data the ripple is always there: an effect fitted on top of the PWM model is
+/// found behind it (switch resistance 20 mΩ; a one-period delay).
+#[test]
+fn effects_are_found_behind_the_switching_ripple() {
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::SwitchResistance, 0.02).unwrap();
+    check(&data(c), "switch_resistance");
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::Delay, 1.0).unwrap();
+    check(&data(c), "delay");
+}
