@@ -50,7 +50,8 @@ fn main() {
     let csv = std::env::temp_dir().join("buckid-speed-averaged.csv");
     averaged.write_csv(&csv).expect("write csv");
     let script = root.join("crates/estimator/benches/scipy_baseline.py");
-    let baselines: Vec<(&str, Option<(f64, f64, f64)>)> = ["lfilter", "dlsim"]
+    type Baseline<'a> = (&'a str, Option<(f64, f64, f64)>);
+    let baselines: Vec<Baseline> = ["lfilter", "dlsim"]
         .into_iter()
         .map(|sim| (sim, scipy(&python, &script, &csv, sim)))
         .collect();

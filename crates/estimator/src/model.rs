@@ -7,10 +7,12 @@
 //! ```
 //!
 //! where `j` is the sample's input level (one level for the averaged and reduced models, one
-//! per distinct duty for the sampled-data PWM model), together with the exact derivatives of
-//! `F, G, H, D` with respect to the free circuit parameters (log-parameterized).
-use buck_model::Params;
+//! per distinct duty for the sampled-data PWM and exact models), together with the derivatives of
+//! `F, G, H, D` with respect to the free circuit parameters (log-parameterized): analytic for
+//! the averaged, PWM and reduced models, central finite differences for the exact model.
 use buck_model::lti::{Discrete, Lti};
+use buck_model::variables::VarId;
+use buck_model::{Converter, Mode, Params, State};
 use nalgebra::DMatrix;
 
 use crate::data::DataSet;
@@ -31,6 +33,22 @@ pub enum Structure {
     /// on switched data it cannot see the ripple shape and is biased for small Cl, like
     /// [`Structure::Averaged`].
     Reduced,
+    /// Exact period map of the plant simulator: like [`Structure::Pwm`] (one level per distinct
+    /// duty, period-start samples) but each level's maps are extracted from one simulated
+    /// switching period of `buck_model::Converter` in switched mode, so every non-ideal effect
+    /// of [`Params`] is in them. Inputs `[vin, io, 1]`: the constant third input carries the
+    /// affine offset of the period map (e.g. a diode drop).
+    ///
+    /// The maps are the period map linearized at the periodic orbit of each level at the data's
+    /// mean `vin` and `io` (found by Newton's method on the period map, perturbations of 1e-3 in
+    /// each state and input). They are exact where the period map is affine: `switch_resistance`,
+    /// `load_esr`, `esl`, and `dead_time` and `diode_drop` while the inductor current keeps the
+    /// sign it has at the orbit through every diode interval. DCM, `inductor_saturation` and
+    /// `cap_dc_bias` make it non-affine (events that move with the state, a state-dependent
+    /// `Cl`): there these maps are only a small-signal approximation around the orbit.
+    /// The state is `[il, vc, vo]`, plus the branch current `ic` of `C` when [`Free::Esl`] is
+    /// free (a nominal `esl > 0` needs `Esl` free). Period-start sampling only.
+    Exact,
 }
 
 impl Structure {
@@ -40,12 +58,13 @@ impl Structure {
             Structure::Averaged => "averaged",
             Structure::Pwm => "pwm",
             Structure::Reduced => "reduced",
+            Structure::Exact => "exact",
         }
     }
 
     /// Parses a CLI name.
     pub fn from_name(s: &str) -> Option<Self> {
-        [Structure::Averaged, Structure::Pwm, Structure::Reduced].into_iter().find(|m| m.name() == s)
+        [Structure::Averaged, Structure::Pwm, Structure::Reduced, Structure::Exact].into_iter().find(|m| m.name() == s)
     }
 }
 
@@ -80,6 +99,17 @@ pub enum Free {
     C,
     /// ESR of the main capacitance.
     Rc,
+    /// `load_esr`: series resistance of `Cl` ([`Structure::Exact`] only).
+    LoadEsr,
+    /// `esl`: series inductance of the `C` branch ([`Structure::Exact`] only).
+    Esl,
+    /// `dead_time` of the half bridge ([`Structure::Exact`] only).
+    DeadTime,
+    /// `diode_drop` of the freewheeling diode ([`Structure::Exact`] only; a positive value makes
+    /// the buck asynchronous).
+    DiodeDrop,
+    /// `switch_resistance` of each switch ([`Structure::Exact`] only).
+    SwitchResistance,
 }
 
 impl Free {
@@ -91,23 +121,45 @@ impl Free {
             Free::RL => "RL",
             Free::C => "C",
             Free::Rc => "Rc",
+            Free::LoadEsr => "load_esr",
+            Free::Esl => "esl",
+            Free::DeadTime => "dead_time",
+            Free::DiodeDrop => "diode_drop",
+            Free::SwitchResistance => "switch_resistance",
         }
     }
 
-    /// Index in the monomial exponent arrays `[L, RL, C, Rc, Cl]`.
-    fn slot(self) -> usize {
+    /// Whether only [`Structure::Exact`] models this parameter.
+    pub fn exact_only(self) -> bool {
+        self.slot().is_none()
+    }
+
+    /// Index in the monomial exponent arrays `[L, RL, C, Rc, Cl]` (none for an effect).
+    fn slot(self) -> Option<usize> {
         match self {
-            Free::L => 0,
-            Free::RL => 1,
-            Free::C => 2,
-            Free::Rc => 3,
-            Free::Cl => 4,
+            Free::L => Some(0),
+            Free::RL => Some(1),
+            Free::C => Some(2),
+            Free::Rc => Some(3),
+            Free::Cl => Some(4),
+            _ => None,
         }
     }
 
     /// Reads the value from circuit parameters.
     pub fn get(self, p: &Params) -> f64 {
-        [p.l, p.rl, p.c, p.rc, p.cl][self.slot()]
+        match self {
+            Free::L => p.l,
+            Free::RL => p.rl,
+            Free::C => p.c,
+            Free::Rc => p.rc,
+            Free::Cl => p.cl,
+            Free::LoadEsr => p.load_esr,
+            Free::Esl => p.esl,
+            Free::DeadTime => p.dead_time,
+            Free::DiodeDrop => p.diode_drop,
+            Free::SwitchResistance => p.switch_resistance,
+        }
     }
 
     /// Writes the value into circuit parameters.
@@ -118,6 +170,11 @@ impl Free {
             Free::C => p.c = value,
             Free::Rc => p.rc = value,
             Free::Cl => p.cl = value,
+            Free::LoadEsr => p.load_esr = value,
+            Free::Esl => p.esl = value,
+            Free::DeadTime => p.dead_time = value,
+            Free::DiodeDrop => p.diode_drop = value,
+            Free::SwitchResistance => p.switch_resistance = value,
         }
     }
 }
@@ -191,7 +248,30 @@ impl Maps {
         let flat = |m: &DMatrix<f64>| m.transpose().as_slice().to_vec();
         Self { f: flat(f), g: flat(g), h: flat(h), d: flat(d) }
     }
+
+    /// `(a − b)/step`, entry by entry (a central difference).
+    fn difference(a: &Maps, b: &Maps, step: f64) -> Self {
+        let diff = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| (p - q) / step).collect();
+        Self { f: diff(&a.f, &b.f), g: diff(&a.g, &b.g), h: diff(&a.h, &b.h), d: diff(&a.d, &b.d) }
+    }
+
+    /// Maps of the same shape filled with NaN (a simulation that could not run).
+    fn nan(nx: usize, ny: usize, nu: usize) -> Self {
+        Self { f: vec![f64::NAN; nx * nx], g: vec![f64::NAN; nx * nu], h: vec![f64::NAN; ny * nx], d: vec![f64::NAN; ny * nu] }
+    }
 }
+
+/// Step in `ln θ` of the central differences that give the exact model's derivatives. The
+/// maps are smooth in θ and computed to ~1e-13, so the truncation error (~step²) and the
+/// rounding error (~1e-13/step) are both ≤ 1e-8 relative: far below what the fit resolves.
+const FD_STEP: f64 = 1e-4;
+
+/// Perturbation of each state [A, V] and input [V, A] when extracting the exact maps.
+const EXACT_DELTA: f64 = 1e-3;
+
+/// Newton iterations for a level's periodic orbit (one step reaches it where the map is affine,
+/// a second confirms; a DCM orbit takes ~6).
+const NEWTON_ITERATIONS: usize = 8;
 
 /// Maps of one input level and their derivatives with respect to each free parameter.
 #[derive(Debug, Clone, Default)]
@@ -223,6 +303,8 @@ pub struct Model {
     pub y: Vec<f64>,
     /// Switching period [s].
     period: f64,
+    /// Mean `vin` and `io` of the data: the operating point of the exact model's orbits.
+    operating: (f64, f64),
 }
 
 /// Largest number of distinct duty values the PWM model accepts (one exact map per value;
@@ -249,6 +331,18 @@ impl Model {
         if free.is_empty() {
             return Err(EstimatorError::Config("at least one free parameter is needed".into()));
         }
+        if structure != Structure::Exact
+            && let Some(f) = free.iter().find(|f| f.exact_only())
+        {
+            return Err(EstimatorError::Config(format!(
+                "the free parameter `{}` is modelled by the exact structure only, not by `{}`",
+                f.name(),
+                structure.name()
+            )));
+        }
+        if structure == Structure::Exact && sampling != Sampling::PeriodStart {
+            return Err(EstimatorError::Config("the exact model takes period-start samples only".into()));
+        }
         let column = |s: Signal| -> Result<&Vec<f64>, EstimatorError> {
             let (col, name) = match (s, sampling) {
                 (Signal::Vout, Sampling::PeriodStart) => (Some(&data.vout), "vout"),
@@ -266,7 +360,7 @@ impl Model {
         let n = if structure == Structure::Reduced { n - 1 } else { n };
         let y = y[..n * outputs.len()].to_vec();
         let (levels, level_of) = match structure {
-            Structure::Pwm => {
+            Structure::Pwm | Structure::Exact => {
                 let mut levels: Vec<f64> = Vec::new();
                 let mut level_of = Vec::with_capacity(n);
                 for &d in &data.duty {
@@ -292,6 +386,7 @@ impl Model {
         let u: Vec<f64> = match structure {
             Structure::Averaged => (0..n).flat_map(|k| [data.duty[k] * data.vin[k], data.io[k]]).collect(),
             Structure::Pwm => (0..n).flat_map(|k| [data.vin[k], data.io[k]]).collect(),
+            Structure::Exact => (0..n).flat_map(|k| [data.vin[k], data.io[k], 1.0]).collect(),
             Structure::Reduced => {
                 let (Some(il), Some(avg)) = (data.il.as_ref(), data.il_avg.as_ref()) else {
                     return Err(EstimatorError::Data(
@@ -303,7 +398,9 @@ impl Model {
                 (0..n).flat_map(|k| [il[k], avg[k], il[k + 1], data.io[k]]).collect()
             }
         };
-        Ok(Self { structure, sampling, outputs: outputs.to_vec(), free: free.to_vec(), levels, level_of, u, y, period })
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        let operating = (mean(&data.vin), mean(&data.io));
+        Ok(Self { structure, sampling, outputs: outputs.to_vec(), free: free.to_vec(), levels, level_of, u, y, period, operating })
     }
 
     /// The first `n` samples only (e.g. to rank start values cheaply).
@@ -319,12 +416,20 @@ impl Model {
 
     /// Number of states.
     pub fn nx(&self) -> usize {
-        if self.structure == Structure::Reduced { 2 } else { 3 }
+        match self.structure {
+            Structure::Reduced => 2,
+            Structure::Exact if self.free.contains(&Free::Esl) => 4,
+            _ => 3,
+        }
     }
 
     /// Number of inputs.
     pub fn nu(&self) -> usize {
-        if self.structure == Structure::Reduced { 4 } else { 2 }
+        match self.structure {
+            Structure::Reduced => 4,
+            Structure::Exact => 3,
+            _ => 2,
+        }
     }
 
     /// Number of outputs.
@@ -344,6 +449,18 @@ impl Model {
 
     /// State of the DC operating point for the first sample's inputs (a start guess).
     pub fn dc_state(&self, p: &Params) -> Vec<f64> {
+        if self.structure == Structure::Exact {
+            // The fixed point of the first sample's period map.
+            let (n, nu) = (self.nx(), self.nu());
+            let Some(level) = self.exact_maps(p).into_iter().nth(self.level_of[0]) else {
+                return vec![0.0; n];
+            };
+            let f = DMatrix::from_row_slice(n, n, &level.f);
+            let g = DMatrix::from_row_slice(n, nu, &level.g);
+            let rhs = g * nalgebra::DVector::from_row_slice(&self.u[..nu]);
+            let m = DMatrix::identity(n, n) - f;
+            return m.lu().solve(&rhs).map_or_else(|| vec![0.0; n], |x| x.as_slice().to_vec());
+        }
         let (a, b) = self.lti(p, None);
         let u = match self.structure {
             Structure::Pwm => {
@@ -352,6 +469,7 @@ impl Model {
             }
             Structure::Averaged => nalgebra::DVector::from_row_slice(&self.u[..2]),
             Structure::Reduced => nalgebra::DVector::from_row_slice(&[self.u[1], self.u[3]]),
+            Structure::Exact => unreachable!("handled above"),
         };
         let rhs = -(b * u);
         a.lu().solve(&rhs).map_or_else(|| vec![0.0; self.nx()], |x| x.as_slice().to_vec())
@@ -408,15 +526,22 @@ impl Model {
     /// Maps of every level at circuit parameters `p`, with derivatives for the free ones when
     /// `with_derivatives`.
     pub fn levels(&self, p: &Params, with_derivatives: bool) -> Vec<Level> {
+        if self.structure == Structure::Exact {
+            return self.exact_levels(p, with_derivatives);
+        }
         let (a, b) = self.lti(p, None);
         let lti = Lti { a, b };
         let derivs: Vec<Lti> = self
             .free
             .iter()
             .filter(|_| with_derivatives)
-            .map(|f| {
-                let (a, b) = self.lti(p, Some(f.slot()));
-                Lti { a, b }
+            .map(|f| match f.slot() {
+                Some(slot) => {
+                    let (a, b) = self.lti(p, Some(slot));
+                    Lti { a, b }
+                }
+                // Not in the averaged circuit (refused by `Model::new`): no dependence.
+                None => Lti { a: DMatrix::zeros(self.nx(), self.nx()), b: DMatrix::zeros(self.nx(), 2) },
             })
             .collect();
         let sel = self.selection();
@@ -519,7 +644,112 @@ impl Model {
                     })
                     .collect()
             }
+            Structure::Exact => unreachable!("handled above"),
         }
+    }
+
+    /// [`Model::levels`] of the exact model: derivatives by central differences in `ln θ`.
+    fn exact_levels(&self, p: &Params, with_derivatives: bool) -> Vec<Level> {
+        let base = self.exact_maps(p);
+        let mut derivs: Vec<Vec<Maps>> = vec![Vec::new(); base.len()];
+        if with_derivatives {
+            for f in &self.free {
+                let v = f.get(p);
+                let (mut hi, mut lo) = (*p, *p);
+                f.set(&mut hi, v * FD_STEP.exp());
+                f.set(&mut lo, v * (-FD_STEP).exp());
+                let (mh, ml) = (self.exact_maps(&hi), self.exact_maps(&lo));
+                for (j, d) in derivs.iter_mut().enumerate() {
+                    d.push(Maps::difference(&mh[j], &ml[j], 2.0 * FD_STEP));
+                }
+            }
+        }
+        base.into_iter().zip(derivs).map(|(maps, derivs)| Level { maps, derivs }).collect()
+    }
+
+    /// The exact model's maps of every level at circuit values `p`, extracted from the plant
+    /// simulator (see [`Structure::Exact`]). A level whose simulation fails gets NaN maps.
+    fn exact_maps(&self, p: &Params) -> Vec<Maps> {
+        let mut q = *p;
+        q.fs = 1.0 / self.period;
+        // One converter for all simulations: its cache of piece transitions is reused.
+        let mut conv = Converter::new(q, Mode::Switched);
+        self.levels
+            .iter()
+            .map(|&duty| {
+                self.exact_level(&mut conv, duty).unwrap_or_else(|| Maps::nan(self.nx(), self.ny(), self.nu()))
+            })
+            .collect()
+    }
+
+    /// One level's maps: the period map linearized at its periodic orbit.
+    fn exact_level(&self, conv: &mut Converter, duty: f64) -> Option<Maps> {
+        use nalgebra::DVector;
+        let (n, ny, t) = (self.nx(), self.ny(), self.period);
+        let (vin, io) = self.operating;
+        conv.set(VarId::Duty, duty).ok()?;
+        let put = |conv: &mut Converter, x: &DVector<f64>, vin: f64, io: f64| -> Option<()> {
+            conv.set(VarId::Vin, vin).ok()?;
+            conv.set(VarId::Io, io).ok()?;
+            conv.set_state(State { il: x[0], vc: x[1], vo: x[2], ic: if n > 3 { x[3] } else { 0.0 } });
+            Some(())
+        };
+        // State after one period from `x` with inputs `vin`, `io`.
+        let period = |conv: &mut Converter, x: &DVector<f64>, vin: f64, io: f64| -> Option<DVector<f64>> {
+            put(conv, x, vin, io)?;
+            conv.step(t).ok()?;
+            let s = conv.state();
+            let v = DVector::from_row_slice(&[s.il, s.vc, s.vo, s.ic][..n]);
+            v.iter().all(|x| x.is_finite()).then_some(v)
+        };
+        // Measured outputs in state `x` with load current `io`.
+        let output = |conv: &mut Converter, x: &DVector<f64>, io: f64| -> Option<DVector<f64>> {
+            put(conv, x, vin, io)?;
+            let (vout, il) = (conv.outputs().vout, conv.state().il);
+            Some(DVector::from_iterator(ny, self.outputs.iter().map(|s| if *s == Signal::Vout { vout } else { il })))
+        };
+        // State Jacobian at `x` and the map's value there.
+        let jacobian = |conv: &mut Converter, x: &DVector<f64>| -> Option<(DMatrix<f64>, DVector<f64>)> {
+            let x1 = period(conv, x, vin, io)?;
+            let mut f = DMatrix::zeros(n, n);
+            for i in 0..n {
+                let mut xi = x.clone();
+                xi[i] += EXACT_DELTA;
+                f.set_column(i, &((period(conv, &xi, vin, io)? - &x1) / EXACT_DELTA));
+            }
+            Some((f, x1))
+        };
+        // Newton's method for the periodic orbit, from the averaged DC point.
+        let dc = conv.params().steady_state(duty, vin, io);
+        let mut x = DVector::from_iterator(n, dc.into_iter().chain([0.0]).take(n));
+        let (mut f, mut x1) = jacobian(conv, &x)?;
+        for _ in 0..NEWTON_ITERATIONS {
+            let step = (DMatrix::identity(n, n) - &f).lu().solve(&(&x1 - &x))?;
+            x += &step;
+            (f, x1) = jacobian(conv, &x)?;
+            if step.amax() <= 1e-9 * (1.0 + x.amax()) {
+                break;
+            }
+        }
+        // Input columns and the affine offset.
+        let mut g = DMatrix::zeros(n, 3);
+        g.set_column(0, &((period(conv, &x, vin + EXACT_DELTA, io)? - &x1) / EXACT_DELTA));
+        g.set_column(1, &((period(conv, &x, vin, io + EXACT_DELTA)? - &x1) / EXACT_DELTA));
+        let offset = &x1 - &f * &x - g.column(0) * vin - g.column(1) * io;
+        g.set_column(2, &offset);
+        // Output map: vout is affine in the state and io, il is a state.
+        let y0 = output(conv, &x, io)?;
+        let mut h = DMatrix::zeros(ny, n);
+        for i in 0..n {
+            let mut xi = x.clone();
+            xi[i] += EXACT_DELTA;
+            h.set_column(i, &((output(conv, &xi, io)? - &y0) / EXACT_DELTA));
+        }
+        let mut d = DMatrix::zeros(ny, 3);
+        d.set_column(1, &((output(conv, &x, io + EXACT_DELTA)? - &y0) / EXACT_DELTA));
+        let offset = &y0 - &h * &x - d.column(1) * io;
+        d.set_column(2, &offset);
+        Some(Maps::from(&f, &g, &h, &d))
     }
 }
 
@@ -549,5 +779,52 @@ mod tests {
         let g = frequency_response(&Params::default(), 12.0, &[1.0, 1e6]);
         assert!((g[0].norm() - 12.0).abs() < 0.01, "{}", g[0]);
         assert!(g[1].norm() < 0.2, "an LC filter attenuates at 1 MHz: {}", g[1]);
+    }
+
+    /// The exact model's maps, extracted from the plant simulator, equal the analytic PWM maps
+    /// of the ideal circuit (an independent reference), with a zero offset column.
+    #[test]
+    fn exact_maps_of_the_ideal_circuit_are_the_pwm_maps() {
+        use crate::experiment::{Experiment, ModelPlant, run};
+        let truth = Params { cl: 4.7e-6, ..Params::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 200, ..Experiment::default() }).unwrap();
+        let outs = [Signal::Vout, Signal::Il];
+        let pwm = Model::new(Structure::Pwm, Sampling::PeriodStart, &outs, &[Free::Cl, Free::L], &data, truth.period()).unwrap();
+        let exact = Model::new(Structure::Exact, Sampling::PeriodStart, &outs, &[Free::Cl, Free::L], &data, truth.period()).unwrap();
+        let (a, b) = (pwm.levels(&truth, true), exact.levels(&truth, true));
+        assert_eq!(a.len(), 2);
+        assert_eq!(b.len(), 2);
+        let close = |x: &[f64], y: &[f64], tol: f64, what: &str| {
+            let scale = x.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(1e-300);
+            for (p, q) in x.iter().zip(y) {
+                assert!((p - q).abs() <= tol * scale, "{what}: pwm {x:?} vs exact {y:?}");
+            }
+        };
+        // Exact inputs are [vin, io, 1]: compare the first two columns, the third is zero.
+        let cols = |m: &[f64], rows: usize, keep: usize| -> Vec<f64> { (0..rows).flat_map(|r| m[r * 3..r * 3 + keep].to_vec()).collect() };
+        let third = |m: &[f64], rows: usize| -> Vec<f64> { (0..rows).map(|r| m[r * 3 + 2]).collect() };
+        for (pa, pb) in a.iter().zip(&b) {
+            close(&pa.maps.f, &pb.maps.f, 1e-9, "F");
+            close(&pa.maps.g, &cols(&pb.maps.g, 3, 2), 1e-9, "G");
+            close(&pa.maps.h, &pb.maps.h, 1e-9, "H");
+            close(&pa.maps.d, &cols(&pb.maps.d, 2, 2), 1e-9, "D");
+            assert!(third(&pb.maps.g, 3).iter().all(|v| v.abs() < 1e-9), "offset {:?}", pb.maps.g);
+            assert!(third(&pb.maps.d, 2).iter().all(|v| v.abs() < 1e-9), "offset {:?}", pb.maps.d);
+            // The finite-difference derivatives agree with the analytic ones.
+            for (da, db) in pa.derivs.iter().zip(&pb.derivs) {
+                close(&da.f, &db.f, 1e-6, "dF");
+                close(&da.g, &cols(&db.g, 3, 2), 1e-6, "dG");
+            }
+        }
+    }
+
+    /// The effect parameters are refused by the analytic structures.
+    #[test]
+    fn effect_parameters_need_the_exact_structure() {
+        use crate::experiment::{Experiment, ModelPlant, run};
+        let data = run(&mut ModelPlant::new(Params::default(), Mode::Switched), &Experiment { samples: 100, ..Experiment::default() }).unwrap();
+        let err = Model::new(Structure::Pwm, Sampling::PeriodStart, &[Signal::Vout], &[Free::Cl, Free::LoadEsr], &data, 1.0 / 330e3);
+        assert!(matches!(err, Err(EstimatorError::Config(_))));
+        assert!(Model::new(Structure::Exact, Sampling::PeriodStart, &[Signal::Vout], &[Free::Cl, Free::LoadEsr], &data, 1.0 / 330e3).is_ok());
     }
 }

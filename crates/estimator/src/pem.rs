@@ -119,7 +119,7 @@ struct Eval {
     jtr: DVector<f64>,
 }
 
-/// Largest number of unknowns (5 circuit parameters, 3 states, a 3 × 2 gain).
+/// Largest number of unknowns (e.g. 2 circuit parameters, 4 states, a 4 × 2 gain).
 const NP_MAX: usize = 14;
 
 /// One level's maps in fixed-size arrays, for the specialised inner loop.
@@ -175,6 +175,10 @@ fn evaluate(
         (3, 1, 2) => evaluate_n::<3, 1, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
         (3, 2, 2) => evaluate_n::<3, 2, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
         (2, 1, 4) => evaluate_n::<2, 1, 4>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (3, 1, 3) => evaluate_n::<3, 1, 3>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (3, 2, 3) => evaluate_n::<3, 2, 3>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (4, 1, 3) => evaluate_n::<4, 1, 3>(model, levels, lay, p, weights, jacobian, sensitivities, record),
+        (4, 2, 3) => evaluate_n::<4, 2, 3>(model, levels, lay, p, weights, jacobian, sensitivities, record),
         (nx, ny, nu) => unreachable!("no model has {nx} states, {ny} outputs and {nu} inputs"),
     }
 }

@@ -84,7 +84,7 @@ pub struct NotTested {
 /// The effects without a grey-box model in the estimator yet.
 pub fn not_tested() -> Vec<NotTested> {
     let reason = "no grey-box model of this effect in the estimator yet";
-    ["diode_drop", "dead_time", "dcm", "load_esr", "esl", "adc_quantization", "inductor_saturation", "cap_dc_bias"]
+    ["dcm", "adc_quantization", "inductor_saturation", "cap_dc_bias"]
         .into_iter()
         .map(|name| NotTested { name, reason })
         .collect()
@@ -121,6 +121,14 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// the nominal model first. When it is significant the ripple may be in the data whatever else
 /// is, so every other candidate is fitted on the averaged and on the PWM model, and the better
 /// held-out fit is judged against the model it extends.
+///
+/// The circuit effects `load_esr`, `esl`, `dead_time` and `diode_drop` are fitted once, with
+/// the exact model (period maps extracted from the switched simulator, see
+/// `estimator::model::Structure::Exact`) and `[Cl, effect]` free, and judged against the PWM
+/// model when the ripple is significant, else against the nominal. The exact model is a
+/// linearization at each duty level's periodic orbit: it is exact where the period map is
+/// affine (`load_esr`, `esl`; `dead_time` and `diode_drop` only while the inductor current
+/// keeps its sign through the diode intervals, i.e. not in DCM or under large current swings).
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
     let nominal_opts = nominal_options(opts.holdout);
     let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
@@ -146,9 +154,39 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
             }
         }
     }
+    // The circuit effects of the exact (simulator-extracted) model: switched by nature, so
+    // judged against the PWM model when the ripple is significant, else against the nominal.
+    let exact_base = ripple.as_ref().filter(|r| r.0.significant).map_or(base, |r| &r.1);
+    for (name, free, start) in EXACT_EFFECTS {
+        if let Some(trial) = exact_trial(data, nominal, &nominal_options(opts.holdout), free, start) {
+            best.push((name, trial, exact_base));
+        }
+    }
     let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
     out.extend(ripple.map(|r| r.0));
     out
+}
+
+/// The effects fitted with the exact model: name, free parameter and its start value (the
+/// parameters are log-scaled, so the start must be positive; typical magnitudes).
+const EXACT_EFFECTS: [(&str, Free, f64); 4] = [
+    ("load_esr", Free::LoadEsr, 10e-3),
+    ("esl", Free::Esl, 1e-9),
+    ("dead_time", Free::DeadTime, 20e-9),
+    ("diode_drop", Free::DiodeDrop, 0.4),
+];
+
+/// Fits Cl and the effect parameter `free` with the exact model, from `start`.
+fn exact_trial(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions, free: Free, start: f64) -> Option<Trial> {
+    let mut with_effect = *nominal;
+    if free.get(&with_effect) <= 0.0 {
+        free.set(&mut with_effect, start);
+    }
+    let cand = run(data, &with_effect, IdentifyOptions { structures: vec![Structure::Exact], free: vec![Free::Cl, free], ..base_opts.clone() })?;
+    let e = cand.fit.estimate(free.name()).copied()?;
+    let params = BTreeMap::from([(free.name().to_string(), e.value)]);
+    let ci95 = BTreeMap::from([(free.name().to_string(), [e.ci95.0, e.ci95.1])]);
+    Some(Trial { cand, params, ci95, extra: 1, discrete: false })
 }
 
 /// The candidates other than the structure: each one's fit on top of `base_opts`.

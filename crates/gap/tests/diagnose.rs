@@ -76,3 +76,16 @@ fn effects_are_found_behind_the_switching_ripple() {
     c.set(VarId::Delay, 1.0).unwrap();
     check(&data(c), "delay");
 }
+
+
+/// Circuit effects of the exact (simulator-extracted) period map, behind the switching ripple:
+/// a load-capacitor ESR of 20 mΩ and a 1 nH ESL of the main capacitor branch.
+#[test]
+fn capacitor_parasitics_are_found_behind_the_switching_ripple() {
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::LoadEsr, 0.02).unwrap();
+    check(&data(c), "load_esr");
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::Esl, 1e-9).unwrap();
+    check(&data(c), "esl");
+}
