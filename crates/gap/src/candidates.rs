@@ -100,7 +100,13 @@ struct Trial {
     discrete: bool,
 }
 
-fn residual(c: &Candidate) -> Vec<f64> {
+/// Held-out NRMSE of a candidate's free-run simulation.
+pub(crate) fn held_out_nrmse(c: &Candidate) -> f64 {
+    1.0 - c.validation.fit_simulation[0] / 100.0
+}
+
+/// Held-out simulation residual of a candidate.
+pub(crate) fn residual(c: &Candidate) -> Vec<f64> {
     c.validation.traces.measured.iter().zip(&c.validation.traces.simulated).map(|(m, s)| m - s).collect()
 }
 
@@ -131,7 +137,7 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// keeps its sign through the diode intervals, i.e. not in DCM or under large current swings).
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
     let nominal_opts = nominal_options(opts.holdout);
-    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
+    let nrmse_before = held_out_nrmse(base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
     let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, nrmse_before, cl_before);
 
@@ -139,16 +145,16 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }, base));
     // Stage two: each other candidate on the averaged model and, when the ripple is
     // significant, also on the PWM model; the better held-out fit counts, judged against its base.
+    let pwm_base = ripple.as_ref().filter(|r| r.0.significant).map(|r| &r.1);
     let mut bases: Vec<(&Candidate, IdentifyOptions)> = vec![(base, nominal_opts.clone())];
-    if let Some((_, pwm)) = ripple.as_ref().filter(|r| r.0.significant) {
-        bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts }));
+    if let Some(pwm) = pwm_base {
+        bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }));
     }
     let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
     for (against, opts) in &bases {
         for (name, trial) in effect_trials(data, nominal, opts) {
-            let score = trial.cand.validation.fit_simulation[0];
             match best.iter_mut().find(|b| b.0 == name) {
-                Some(b) if b.1.cand.validation.fit_simulation[0] >= score => {}
+                Some(b) if held_out_nrmse(&b.1.cand) <= held_out_nrmse(&trial.cand) => {}
                 Some(b) => *b = (name, trial, against),
                 None => best.push((name, trial, against)),
             }
@@ -156,9 +162,9 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     }
     // The circuit effects of the exact (simulator-extracted) model: switched by nature, so
     // judged against the PWM model when the ripple is significant, else against the nominal.
-    let exact_base = ripple.as_ref().filter(|r| r.0.significant).map_or(base, |r| &r.1);
+    let exact_base = pwm_base.unwrap_or(base);
     for (name, free, start) in EXACT_EFFECTS {
-        if let Some(trial) = exact_trial(data, nominal, &nominal_options(opts.holdout), free, start) {
+        if let Some(trial) = exact_trial(data, nominal, &nominal_opts, free, start) {
             best.push((name, trial, exact_base));
         }
     }
@@ -196,7 +202,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
     let drift = [Free::L, Free::C, Free::Rc]
         .into_iter()
         .filter_map(|f| run(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }).map(|c| (f, c)))
-        .min_by(|a, b| b.1.validation.fit_simulation[0].total_cmp(&a.1.validation.fit_simulation[0]));
+        .min_by(|a, b| held_out_nrmse(&a.1).total_cmp(&held_out_nrmse(&b.1)));
     if let Some((f, cand)) = drift {
         let mut params = BTreeMap::new();
         let mut ci95 = BTreeMap::new();
@@ -220,7 +226,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
     // delay: the duty drives the switch 1 or 2 periods late.
     let delay = (1..=2usize)
         .filter_map(|n| run(&delayed(data, n), nominal, base_opts.clone()).map(|c| (n, c)))
-        .min_by(|a, b| b.1.validation.fit_simulation[0].total_cmp(&a.1.validation.fit_simulation[0]));
+        .min_by(|a, b| held_out_nrmse(&a.1).total_cmp(&held_out_nrmse(&b.1)));
     if let Some((n, cand)) = delay {
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
         trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, discrete: true }));
@@ -232,8 +238,8 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
 /// otherwise, and better on the held-out data); shrink and Cl movement against the nominal.
 fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> (EffectFit, Candidate) {
     let var = |c: &Candidate| c.fit.sigma[0].powi(2);
-    let nrmse_after = 1.0 - t.cand.validation.fit_simulation[0] / 100.0;
-    let nrmse_against = 1.0 - against.validation.fit_simulation[0] / 100.0;
+    let nrmse_after = held_out_nrmse(&t.cand);
+    let nrmse_against = held_out_nrmse(against);
     let lr = n_est as f64 * (var(against) / var(&t.cand)).ln();
     let delta_aic = -lr + 2.0 * t.extra as f64;
     let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.discrete {

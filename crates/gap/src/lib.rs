@@ -81,7 +81,7 @@ fn nominal_options(holdout: f64) -> IdentifyOptions {
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
     let base = identify(data, nominal, &nominal_options(opts.holdout))?;
     let base = base.best().clone();
-    let nrmse_before = 1.0 - base.validation.fit_simulation[0] / 100.0;
+    let nrmse_before = candidates::held_out_nrmse(&base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let mut effects = candidates::fit_all(data, nominal, opts, &base, n_est);
@@ -93,7 +93,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .find(|e| e.significant && e.shrink_percent > 0.0)
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // The noise floor is what the best significant model leaves (else the nominal residual).
-    let residual = base_residual(&base);
+    let residual = candidates::residual(&base);
     let floor = effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual);
     let location = locate::locate(data, n_est, &residual, floor);
     Ok(Diagnosis {
@@ -103,8 +103,4 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         not_tested: candidates::not_tested(),
         verdict,
     })
-}
-
-fn base_residual(c: &estimator::identify::Candidate) -> Vec<f64> {
-    c.validation.traces.measured.iter().zip(&c.validation.traces.simulated).map(|(m, s)| m - s).collect()
 }
