@@ -9,7 +9,7 @@ use estimator::model::{Free, Structure};
 use estimator::validate::chi2_99;
 use serde::Serialize;
 
-use crate::{DiagnoseOptions, nominal_options};
+use crate::{DiagnoseOptions, Nominal, nominal_options};
 
 /// Every effect of the design table, by its contract name.
 pub const EFFECTS: [&str; 12] = [
@@ -136,12 +136,16 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// affine (`load_esr`, `esl`; `dead_time` and `diode_drop` only while the inductor current
 /// keeps its sign through the diode intervals, i.e. not in DCM or under large current swings).
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
-    let nominal_opts = nominal_options(opts.holdout);
+    let nominal_opts = nominal_options(opts);
     let nrmse_before = held_out_nrmse(base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
     let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, nrmse_before, cl_before);
 
-    let ripple = run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() })
+    // With a switched nominal the ripple is already in the model: no `switching_ripple`
+    // candidate, and everything is judged against the nominal.
+    let ripple = (opts.nominal == Nominal::Averaged)
+        .then(|| run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }))
+        .flatten()
         .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }, base));
     // Stage two: each other candidate on the averaged model and, when the ripple is
     // significant, also on the PWM model; the better held-out fit counts, judged against its base.

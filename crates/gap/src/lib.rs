@@ -34,17 +34,45 @@ pub enum GapError {
     Estimator(#[from] estimator::EstimatorError),
 }
 
+/// The simulation model the data is compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Nominal {
+    /// The averaged circuit (no switching ripple): `switching_ripple` is a candidate.
+    #[default]
+    Averaged,
+    /// The ideal switched circuit sampled at period starts (the sampled-data PWM model): the
+    /// ripple is part of the model, so `switching_ripple` is not a candidate.
+    Switched,
+}
+
 /// Settings of a diagnosis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiagnoseOptions {
     /// Fraction of the samples, at the end, held out for judging.
     pub holdout: f64,
+    /// The nominal simulation model.
+    pub nominal: Nominal,
 }
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
-        Self { holdout: 1.0 / 3.0 }
+        Self { holdout: 1.0 / 3.0, nominal: Nominal::Averaged }
     }
+}
+
+/// Held-out traces for plots: the measured output, the nominal model's and the verdict's
+/// simulations.
+#[derive(Debug, Clone, Default)]
+pub struct Traces {
+    /// Index of the first held-out sample in the data.
+    pub start: usize,
+    /// Measured `vout` [V].
+    pub measured: Vec<f64>,
+    /// Nominal model's free-run simulation [V].
+    pub nominal: Vec<f64>,
+    /// Simulation with the verdict's effect added (`None` when the verdict is `none`) [V].
+    pub after: Option<Vec<f64>>,
 }
 
 /// The nominal model's fit, the gap before any effect is added.
@@ -70,16 +98,25 @@ pub struct Diagnosis {
     pub not_tested: Vec<NotTested>,
     /// The significant effect that closes most of the gap, or `none`.
     pub verdict: String,
+    /// The nominal model used.
+    pub nominal: Nominal,
+    /// Held-out traces for plots.
+    #[serde(skip)]
+    pub traces: Traces,
 }
 
-/// The nominal model: the averaged model with Cl free.
-fn nominal_options(holdout: f64) -> IdentifyOptions {
-    IdentifyOptions { structures: vec![Structure::Averaged], free: vec![Free::Cl], holdout, ..IdentifyOptions::default() }
+/// The nominal model with Cl free.
+fn nominal_options(opts: &DiagnoseOptions) -> IdentifyOptions {
+    let structure = match opts.nominal {
+        Nominal::Averaged => Structure::Averaged,
+        Nominal::Switched => Structure::Pwm,
+    };
+    IdentifyOptions { structures: vec![structure], free: vec![Free::Cl], holdout: opts.holdout, ..IdentifyOptions::default() }
 }
 
 /// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
-    let base = identify(data, nominal, &nominal_options(opts.holdout))?;
+    let base = identify(data, nominal, &nominal_options(opts))?;
     let base = base.best().clone();
     let nrmse_before = candidates::held_out_nrmse(&base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
@@ -96,11 +133,19 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let residual = candidates::residual(&base);
     let floor = effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual);
     let location = locate::locate(data, n_est, &residual, floor);
+    let measured = base.validation.traces.measured.clone();
+    let after = effects
+        .iter()
+        .find(|e| e.name == verdict)
+        .map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
+    let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
         gap_before: Before { nrmse: nrmse_before, cl: cl_before },
         location,
         effects,
         not_tested: candidates::not_tested(),
         verdict,
+        nominal: opts.nominal,
+        traces,
     })
 }
