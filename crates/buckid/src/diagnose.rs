@@ -15,7 +15,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         eprintln!("assuming {a}");
     }
     eprintln!("fitting the nominal model and {} candidate effects", gap::EFFECTS.len() - gap::not_tested_count());
-    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout })?;
+    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout, ..DiagnoseOptions::default() })?;
     println!("gap before  held-out NRMSE {:.4} (averaged model, Cl {:.4} µF)", dx.gap_before.nrmse, dx.gap_before.cl * 1e6);
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
