@@ -61,6 +61,12 @@ impl FmuPlant {
     /// FMU's own) and malformed FMUs.
     pub fn open(path: &Path, opts: &FmuOptions) -> Result<Self, EstimatorError> {
         let fmu = Fmu::open(path).map_err(plant_err)?;
+        Self::from_fmu(fmu, path, opts)
+    }
+
+    /// Instantiates an FMU already opened from `path` (e.g. after reading its parameters'
+    /// start values); errors as for [`FmuPlant::open`].
+    pub fn from_fmu(fmu: Fmu, path: &Path, opts: &FmuOptions) -> Result<Self, EstimatorError> {
         for role in opts.map.keys().chain(opts.default_map.iter().map(|(r, _)| r)) {
             if !ROLES.contains(&role.as_str()) {
                 return Err(EstimatorError::Config(format!("unknown role `{role}` in --map; roles are {}", ROLES.join(", "))));
@@ -109,6 +115,12 @@ impl FmuPlant {
         let instance = fmu.instantiate("buckid").map_err(plant_err)?;
         let source = format!("{} ({})", path.display(), fmu.model_description().model_name);
         Ok(Self { instance, fmu, roles, settings, fs, periods: 0, source })
+    }
+
+    /// Sets the input voltage [V] for the periods that follow (for data whose `vin` varies;
+    /// [`Plant::start`] sets the first value). A no-op when the FMU has no `vin` role.
+    pub fn set_vin(&mut self, vin: f64) -> Result<(), EstimatorError> {
+        self.set("vin", vin)
     }
 
     fn vr(&self, role: &str) -> Option<u32> {

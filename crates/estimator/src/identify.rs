@@ -148,6 +148,14 @@ pub fn identify(data: &DataSet, nominal: &Params, opts: &IdentifyOptions) -> Res
         .collect();
     let mut candidates = Vec::new();
     for &structure in &opts.structures {
+        if structure == Structure::Simulated {
+            let mut start = *nominal;
+            if let Some(cl) = opts.cl_guess {
+                start.cl = cl;
+            }
+            candidates.push(crate::simulated::fit(data, &start, &opts.free, n_est)?);
+            continue;
+        }
         let outs: Vec<Signal> =
             if structure == Structure::Reduced { vec![Signal::Vout] } else { outputs.clone() };
         let model = Model::new(structure, opts.sampling, &outs, &opts.free, &estimation, period)?;

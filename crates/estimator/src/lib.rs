@@ -14,6 +14,7 @@ pub mod fmu_plant;
 pub mod identify;
 pub mod model;
 pub mod pem;
+pub mod simulated;
 pub mod validate;
 
 pub use error::EstimatorError;

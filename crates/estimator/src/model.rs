@@ -49,6 +49,13 @@ pub enum Structure {
     /// The state is `[il, vc, vo]`, plus the branch current `ic` of `C` when [`Free::Esl`] is
     /// free (a nominal `esl > 0` needs `Esl` free). Period-start sampling only.
     Exact,
+    /// The plant simulator itself, nonlinear: `buck_model::Converter` in switched mode driven
+    /// period by period by the data's duty, `io` and `vin`, sampled at period starts, fitted by
+    /// its simulation error (see [`crate::simulated`]). Exact where [`Structure::Exact`] is a
+    /// linearization: DCM, diode and dead-time intervals that move with the state, saturation,
+    /// a voltage-dependent `Cl`. Output error only, `vout` only, period-start sampling; slower
+    /// (a simulation per parameter per iteration).
+    Simulated,
 }
 
 impl Structure {
@@ -59,12 +66,13 @@ impl Structure {
             Structure::Pwm => "pwm",
             Structure::Reduced => "reduced",
             Structure::Exact => "exact",
+            Structure::Simulated => "simulated",
         }
     }
 
     /// Parses a CLI name.
     pub fn from_name(s: &str) -> Option<Self> {
-        [Structure::Averaged, Structure::Pwm, Structure::Reduced, Structure::Exact].into_iter().find(|m| m.name() == s)
+        [Structure::Averaged, Structure::Pwm, Structure::Reduced, Structure::Exact, Structure::Simulated].into_iter().find(|m| m.name() == s)
     }
 }
 
@@ -110,6 +118,14 @@ pub enum Free {
     DiodeDrop,
     /// `switch_resistance` of each switch ([`Structure::Exact`] only).
     SwitchResistance,
+    /// `inductor_saturation`: fraction of `L` lost above `isat` ([`Structure::Exact`] and
+    /// [`Structure::Simulated`] only).
+    InductorSaturation,
+    /// `isat`: saturation current of the inductor (with [`Free::InductorSaturation`]).
+    Isat,
+    /// `cap_dc_bias`: fraction of `Cl` lost at its rated voltage ([`Structure::Exact`] and
+    /// [`Structure::Simulated`] only).
+    CapDcBias,
 }
 
 impl Free {
@@ -126,6 +142,9 @@ impl Free {
             Free::DeadTime => "dead_time",
             Free::DiodeDrop => "diode_drop",
             Free::SwitchResistance => "switch_resistance",
+            Free::InductorSaturation => "inductor_saturation",
+            Free::Isat => "isat",
+            Free::CapDcBias => "cap_dc_bias",
         }
     }
 
@@ -159,6 +178,9 @@ impl Free {
             Free::DeadTime => p.dead_time,
             Free::DiodeDrop => p.diode_drop,
             Free::SwitchResistance => p.switch_resistance,
+            Free::InductorSaturation => p.inductor_saturation,
+            Free::Isat => p.isat,
+            Free::CapDcBias => p.cap_dc_bias,
         }
     }
 
@@ -175,6 +197,9 @@ impl Free {
             Free::DeadTime => p.dead_time = value,
             Free::DiodeDrop => p.diode_drop = value,
             Free::SwitchResistance => p.switch_resistance = value,
+            Free::InductorSaturation => p.inductor_saturation = value,
+            Free::Isat => p.isat = value,
+            Free::CapDcBias => p.cap_dc_bias = value,
         }
     }
 }
@@ -322,6 +347,11 @@ impl Model {
         period: f64,
     ) -> Result<Self, EstimatorError> {
         data.validate()?;
+        if structure == Structure::Simulated {
+            return Err(EstimatorError::Config(
+                "the simulated structure has no linear predictor: fit it with `estimator::simulated::fit`".into(),
+            ));
+        }
         if outputs.is_empty() {
             return Err(EstimatorError::Config("at least one output is needed".into()));
         }
@@ -387,6 +417,7 @@ impl Model {
             Structure::Averaged => (0..n).flat_map(|k| [data.duty[k] * data.vin[k], data.io[k]]).collect(),
             Structure::Pwm => (0..n).flat_map(|k| [data.vin[k], data.io[k]]).collect(),
             Structure::Exact => (0..n).flat_map(|k| [data.vin[k], data.io[k], 1.0]).collect(),
+            Structure::Simulated => unreachable!("rejected above"),
             Structure::Reduced => {
                 let (Some(il), Some(avg)) = (data.il.as_ref(), data.il_avg.as_ref()) else {
                     return Err(EstimatorError::Data(
@@ -470,6 +501,7 @@ impl Model {
             Structure::Averaged => nalgebra::DVector::from_row_slice(&self.u[..2]),
             Structure::Reduced => nalgebra::DVector::from_row_slice(&[self.u[1], self.u[3]]),
             Structure::Exact => unreachable!("handled above"),
+            Structure::Simulated => unreachable!("never built"),
         };
         let rhs = -(b * u);
         a.lu().solve(&rhs).map_or_else(|| vec![0.0; self.nx()], |x| x.as_slice().to_vec())
@@ -645,6 +677,7 @@ impl Model {
                     .collect()
             }
             Structure::Exact => unreachable!("handled above"),
+            Structure::Simulated => unreachable!("never built"),
         }
     }
 
