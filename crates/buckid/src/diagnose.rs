@@ -1,22 +1,109 @@
-//! `buckid diagnose`: where, which and how far, for a data file against the averaged model.
+//! `buckid diagnose`: where, which and how far, for a data file against the nominal model
+//! (averaged or switched; its circuit values optionally from an FMU, which is then also run
+//! as given).
+use std::collections::BTreeMap;
+
 use anyhow::{Context, Result};
 use estimator::data::DataSet;
-use gap::{DiagnoseOptions, diagnose};
+use gap::{DiagnoseOptions, Nominal, diagnose};
+use serde::Serialize;
 
-use crate::DiagnoseArgs;
-use crate::identify::nominal_from;
+use crate::identify::{nominal_with, pair};
+use crate::nominal_fmu::NominalFmu;
+use crate::{DiagnoseArgs, NominalChoice};
+
+/// The `"fmu"` member of the JSON: the FMU as given, run on the data.
+#[derive(Debug, Serialize)]
+struct FmuOut {
+    path: String,
+    model_name: String,
+    /// The nominal model its `mode` start value selects, if it has one.
+    mode: Option<Nominal>,
+    /// Circuit values taken from its start values.
+    circuit: BTreeMap<&'static str, f64>,
+    /// Cl it was run with (the nominal fit's), when it has a `Cl` parameter [F].
+    cl: Option<f64>,
+    /// Held-out NRMSE of its simulation.
+    nrmse: f64,
+}
+
+fn name(n: Nominal) -> &'static str {
+    match n {
+        Nominal::Averaged => "averaged",
+        Nominal::Switched => "switched",
+    }
+}
+
+/// The nominal model: `--nominal`, else the FMU's `mode`, else averaged; notes on stderr.
+fn choose_nominal(asked: Option<NominalChoice>, fmu: Option<&NominalFmu>) -> Nominal {
+    let from_fmu = fmu.and_then(NominalFmu::nominal);
+    let asked = asked.map(|c| match c {
+        NominalChoice::Averaged => Nominal::Averaged,
+        NominalChoice::Switched => Nominal::Switched,
+    });
+    match (asked, from_fmu) {
+        (Some(n), Some(Ok(m))) if n != m => {
+            eprintln!("nominal model {} as asked (the FMU's `mode` selects {}; the FMU itself runs as given)", name(n), name(m));
+            n
+        }
+        (Some(n), _) => n,
+        (None, Some(Ok(m))) => {
+            eprintln!("nominal model {} from the FMU's `mode` start value", name(m));
+            m
+        }
+        (None, Some(Err(v))) => {
+            eprintln!("the FMU's `mode` start value {v} is neither 1 (averaged) nor 2 (switched): assuming the averaged nominal model");
+            Nominal::Averaged
+        }
+        (None, None) => Nominal::Averaged,
+    }
+}
 
 /// Runs the command.
 pub fn run(args: &DiagnoseArgs) -> Result<()> {
+    let map: BTreeMap<String, String> = args.map.iter().map(|m| pair(m, "--map")).collect::<Result<_>>()?;
     eprintln!("reading {}", args.data.display());
     let data = DataSet::read_csv(&args.data)?;
-    let (nominal, assumed) = nominal_from(&data)?;
+    let fmu = match &args.fmu {
+        Some(path) => {
+            eprintln!("loading {}", path.display());
+            Some(NominalFmu::open(path)?)
+        }
+        None => None,
+    };
+    let given = fmu.as_ref().map(|f| f.circuit.clone()).unwrap_or_default();
+    if !given.is_empty() {
+        eprintln!("circuit values from the FMU's start values: {}", given.keys().copied().collect::<Vec<_>>().join(", "));
+    }
+    let (nominal, assumed) = nominal_with(&data, &given)?;
     for a in &assumed {
         eprintln!("assuming {a}");
     }
-    eprintln!("fitting the nominal model and {} candidate effects", gap::EFFECTS.len() - gap::not_tested_count());
-    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout, ..DiagnoseOptions::default() })?;
-    println!("gap before  held-out NRMSE {:.4} (averaged model, Cl {:.4} µF)", dx.gap_before.nrmse, dx.gap_before.cl * 1e6);
+    let model = choose_nominal(args.nominal, fmu.as_ref());
+    eprintln!("fitting the nominal {} model and the candidate effects", name(model));
+    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout, nominal: model })?;
+    let fmu_out = match (fmu, &args.fmu) {
+        (Some(f), Some(path)) => {
+            eprintln!("running {} on the data's inputs", path.display());
+            let (model_name, mode, circuit) = (f.model_name().to_string(), f.nominal().and_then(Result::ok), f.circuit.clone());
+            let run = f.run(&data, dx.traces.start, dx.gap_before.cl, map)?;
+            let out = FmuOut { path: path.display().to_string(), model_name, mode, circuit, cl: run.cl, nrmse: run.nrmse };
+            Some((out, run.simulated))
+        }
+        _ => None,
+    };
+
+    println!("source      {}", args.data.display());
+    println!(
+        "gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF)",
+        dx.gap_before.nrmse,
+        name(dx.nominal),
+        dx.gap_before.cl * 1e6
+    );
+    if let Some((f, _)) = &fmu_out {
+        let cl = f.cl.map_or_else(|| "its own Cl".to_string(), |cl| format!("Cl {:.4} µF", cl * 1e6));
+        println!("FMU         held-out NRMSE {:.4} as given ({}, {cl})", f.nrmse, f.path);
+    }
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
         let params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
@@ -34,9 +121,26 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         println!("not tested  {:18} {}", n.name, n.reason);
     }
     println!("verdict     {}", dx.verdict);
+
     if let Some(path) = &args.json {
-        std::fs::write(path, serde_json::to_string_pretty(&dx)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+        let mut json = serde_json::to_value(&dx)?;
+        if let (Some(obj), Some((f, _))) = (json.as_object_mut(), &fmu_out) {
+            obj.insert("fmu".to_string(), serde_json::to_value(f)?);
+        }
+        std::fs::write(path, serde_json::to_string_pretty(&json)? + "\n").with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
+    }
+    if let Some(dir) = &args.report {
+        let source = args.data.display().to_string();
+        let ctx = crate::report::diagnose::Context {
+            source: &source,
+            data: &data,
+            nominal: &nominal,
+            assumed: &assumed,
+            fmu: fmu_out.as_ref().map(|(f, sim)| (f.path.as_str(), f.nrmse, sim.as_slice())),
+        };
+        let file = crate::report::diagnose::write(dir, &dx, &ctx)?;
+        eprintln!("wrote {}", file.display());
     }
     Ok(())
 }

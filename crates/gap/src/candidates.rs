@@ -60,6 +60,9 @@ pub struct EffectFit {
     /// AIC difference against the model it extends (negative: better): the nominal averaged
     /// model, or the PWM model once `switching_ripple` is significant.
     pub delta_aic: f64,
+    /// Akaike's criterion on the estimation part, `N·ln σ² + 2·(extra parameters)`, comparable
+    /// across candidates: the verdict is the significant effect with the lowest.
+    pub aic: f64,
     /// Likelihood-ratio statistic against the model it extends, for nested continuous effects.
     pub lr_statistic: Option<f64>,
     /// Its 99 % critical value.
@@ -72,7 +75,7 @@ pub struct EffectFit {
     pub residual: Vec<f64>,
 }
 
-/// An effect this version cannot fit yet.
+/// An effect that was not fitted to this data.
 #[derive(Debug, Clone, Serialize)]
 pub struct NotTested {
     /// Contract name.
@@ -81,14 +84,6 @@ pub struct NotTested {
     pub reason: &'static str,
 }
 
-/// The effects without a grey-box model in the estimator yet.
-pub fn not_tested() -> Vec<NotTested> {
-    let reason = "no grey-box model of this effect in the estimator yet";
-    ["dcm", "adc_quantization", "inductor_saturation", "cap_dc_bias"]
-        .into_iter()
-        .map(|name| NotTested { name, reason })
-        .collect()
-}
 
 struct Trial {
     cand: Candidate,
@@ -135,7 +130,7 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// linearization at each duty level's periodic orbit: it is exact where the period map is
 /// affine (`load_esr`, `esl`; `dead_time` and `diode_drop` only while the inductor current
 /// keeps its sign through the diode intervals, i.e. not in DCM or under large current swings).
-pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> Vec<EffectFit> {
+pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> (Vec<EffectFit>, Vec<NotTested>) {
     let nominal_opts = nominal_options(opts);
     let nrmse_before = held_out_nrmse(base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
@@ -155,6 +150,8 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }));
     }
     let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
+    let mut extra: Vec<EffectFit> = Vec::new();
+    let mut not_tested: Vec<NotTested> = Vec::new();
     for (against, opts) in &bases {
         for (name, trial) in effect_trials(data, nominal, opts) {
             match best.iter_mut().find(|b| b.0 == name) {
@@ -172,19 +169,74 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
             best.push((name, trial, exact_base));
         }
     }
+    // The nonlinear effects with the plant simulator itself, on switched data only (the
+    // ripple significant or in the nominal).
+    let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
+    if !switched {
+        not_tested.extend(SIMULATED_EFFECTS.iter().map(|e| NotTested {
+            name: e.0,
+            reason: "switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)",
+        }));
+    } else {
+        let cl = exact_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
+        for (name, trial) in simulated_trials(data, &Params { cl, ..*nominal }, n_est) {
+            best.push((name, trial, exact_base));
+        }
+    }
+    if let Some(fit) = crate::quantization::candidate(data, exact_base, n_est, nrmse_before, cl_before) {
+        extra.push(fit);
+    }
     let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
     out.extend(ripple.map(|r| r.0));
-    out
+    out.extend(extra);
+    (out, not_tested)
 }
 
 /// The effects fitted with the exact model: name, free parameter and its start value (the
-/// parameters are log-scaled, so the start must be positive; typical magnitudes).
-const EXACT_EFFECTS: [(&str, Free, f64); 4] = [
-    ("load_esr", Free::LoadEsr, 10e-3),
-    ("esl", Free::Esl, 1e-9),
-    ("dead_time", Free::DeadTime, 20e-9),
-    ("diode_drop", Free::DiodeDrop, 0.4),
+/// parameters are log-scaled, so the start must be positive; typical magnitudes). Their period
+/// maps are affine, so the linearization is exact.
+const EXACT_EFFECTS: [(&str, Free, f64); 2] = [("load_esr", Free::LoadEsr, 10e-3), ("esl", Free::Esl, 1e-9)];
+
+/// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
+/// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
+/// whether the effect switches the half bridge to a diode low side (`dcm`).
+const SIMULATED_EFFECTS: [(&str, &[(Free, f64)], bool); 5] = [
+    ("diode_drop", &[(Free::DiodeDrop, 0.4)], false),
+    ("dcm", &[], true),
+    ("dead_time", &[(Free::DeadTime, 20e-9)], false),
+    ("inductor_saturation", &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], false),
+    ("cap_dc_bias", &[(Free::CapDcBias, 0.4)], false),
 ];
+
+/// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the
+/// circuit values `start` (Cl from the model it extends).
+fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'static str, Trial)> {
+    let io = data.io.iter().sum::<f64>() / data.len() as f64;
+    SIMULATED_EFFECTS
+        .iter()
+        .filter_map(|&(name, extra, dcm)| {
+            let mut p = Params { dcm, ..*start };
+            let mut free = vec![Free::Cl];
+            for &(f, v) in extra {
+                // The saturation current starts half an amp above the mean load current.
+                f.set(&mut p, if v.is_nan() { io.abs() + 0.5 } else { v });
+                free.push(f);
+            }
+            let cand = estimator::simulated::fit(data, &p, &free, n_est).ok()?;
+            let mut params = BTreeMap::new();
+            let mut ci95 = BTreeMap::new();
+            for &(f, _) in extra {
+                let e = cand.fit.estimate(f.name())?;
+                params.insert(f.name().to_string(), e.value);
+                ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+            }
+            if dcm {
+                params.insert("dcm".to_string(), 1.0);
+            }
+            Some((name, Trial { cand, params, ci95, extra: extra.len(), discrete: dcm }))
+        })
+        .collect()
+}
 
 /// Fits Cl and the effect parameter `free` with the exact model, from `start`.
 fn exact_trial(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions, free: Free, start: f64) -> Option<Trial> {
@@ -265,6 +317,7 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_
         nrmse_after,
         shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
         delta_aic,
+        aic: n_est as f64 * var(&t.cand).ln() + 2.0 * t.extra as f64,
         lr_statistic,
         lr_limit,
         significant: passes && nrmse_after < nrmse_against,

@@ -10,6 +10,7 @@
 
 mod candidates;
 mod locate;
+mod quantization;
 
 use buck_model::Params;
 use estimator::data::DataSet;
@@ -19,10 +20,6 @@ use serde::Serialize;
 
 pub use candidates::{EFFECTS, EffectFit, NotTested};
 
-/// Number of design-table effects this version does not fit yet.
-pub fn not_tested_count() -> usize {
-    candidates::not_tested().len()
-}
 pub use locate::{Band, Group, Where};
 
 /// Why a diagnosis could not be made.
@@ -94,7 +91,7 @@ pub struct Diagnosis {
     pub location: Where,
     /// Every candidate effect that was fitted, best held-out error first.
     pub effects: Vec<EffectFit>,
-    /// Effects of the design table this version cannot fit yet, with the reason.
+    /// Effects of the design table not fitted to this data, with the reason.
     pub not_tested: Vec<NotTested>,
     /// The significant effect that closes most of the gap, or `none`.
     pub verdict: String,
@@ -121,13 +118,15 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let nrmse_before = candidates::held_out_nrmse(&base);
     let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
-    let mut effects = candidates::fit_all(data, nominal, opts, &base, n_est);
+    let (mut effects, not_tested) = candidates::fit_all(data, nominal, opts, &base, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
-    // The significant effect with the lowest held-out error (effects are sorted by it): an
-    // effect on top of the ripple-exact model beats the ripple alone only by explaining more.
+    // The significant effect with the lowest Akaike criterion: an effect on top of the
+    // ripple-exact model beats the ripple alone only by explaining more, and of two nested
+    // effects (dcm inside diode_drop) the richer one wins only by more than its parameter's worth.
     let verdict = effects
         .iter()
-        .find(|e| e.significant && e.shrink_percent > 0.0)
+        .filter(|e| e.significant && e.shrink_percent > 0.0)
+        .min_by(|a, b| a.aic.total_cmp(&b.aic))
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // The noise floor is what the best significant model leaves (else the nominal residual).
     let residual = candidates::residual(&base);
@@ -143,7 +142,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         gap_before: Before { nrmse: nrmse_before, cl: cl_before },
         location,
         effects,
-        not_tested: candidates::not_tested(),
+        not_tested,
         verdict,
         nominal: opts.nominal,
         traces,

@@ -1,0 +1,98 @@
+//! The `adc_quantization` candidate: readings that lie on a lattice `offset + k·lsb`.
+//!
+//! Quantization is not a dynamic effect, so it is not fitted with Cl: it is detected in the
+//! data (the readings take few distinct values, all on one lattice), and the model it extends is
+//! judged with its simulation passed through the same quantizer. The quantizer's step is exact
+//! from the data; the ADC's bits are reported for the design's 16 V full scale.
+use std::collections::BTreeMap;
+
+use estimator::data::DataSet;
+use estimator::identify::Candidate;
+use estimator::validate::nrmse;
+
+use crate::candidates::{ClMove, EffectFit};
+
+/// Full scale the bit count is reported for [V] (the plant's `adc_vfs` default).
+const FULL_SCALE: f64 = 16.0;
+
+/// Fraction of the readings that must lie on the lattice.
+const ON_LATTICE: f64 = 0.999;
+
+/// A reading lies on the lattice when within this fraction of a step of a lattice point.
+const LATTICE_TOL: f64 = 1e-6;
+
+/// The lattice `(lsb, offset)` the readings `v` lie on, if they do: far fewer distinct values
+/// than readings, and (nearly) every reading an integer number of steps from the first.
+pub(crate) fn lattice(v: &[f64]) -> Option<(f64, f64)> {
+    let mut distinct = v.to_vec();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    if distinct.len() < 2 || distinct.len() * 4 > v.len() {
+        return None;
+    }
+    // Steps below the file's decimal precision are rounding, not the lattice.
+    let tiny = 1e-9 * distinct.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let lsb = distinct.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > tiny).fold(f64::INFINITY, f64::min);
+    if !(lsb > 0.0) {
+        return None;
+    }
+    let offset = distinct[0];
+    let on = v.iter().filter(|x| {
+        let steps = (*x - offset) / lsb;
+        (steps - steps.round()).abs() <= LATTICE_TOL.max(tiny / lsb) * steps.abs().max(1.0)
+    });
+    (on.count() as f64 >= ON_LATTICE * v.len() as f64).then_some((lsb, offset))
+}
+
+/// `x` rounded to the lattice.
+fn quantize(x: f64, (lsb, offset): (f64, f64)) -> f64 {
+    offset + ((x - offset) / lsb).round() * lsb
+}
+
+/// The candidate, when `data.vout` lies on a lattice: `against`'s held-out simulation passed
+/// through the quantizer. Significant when the lattice is found (a continuous measurement has
+/// as many distinct values as samples) and the quantized simulation is closer to the data.
+pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> Option<EffectFit> {
+    let grid = lattice(&data.vout)?;
+    let traces = &against.validation.traces;
+    let quantized: Vec<f64> = traces.simulated.iter().map(|&x| quantize(x, grid)).collect();
+    let nrmse_after = nrmse(&traces.measured, &quantized);
+    let plain = nrmse(&traces.measured, &traces.simulated);
+    let residual: Vec<f64> = traces.measured.iter().zip(&quantized).map(|(m, q)| m - q).collect();
+    let cl = against.fit.estimate("Cl").copied();
+    let bits = (FULL_SCALE / grid.0).log2();
+    Some(EffectFit {
+        name: "adc_quantization",
+        params: BTreeMap::from([("lsb".to_string(), grid.0), ("bits_at_16V_full_scale".to_string(), bits)]),
+        ci95: BTreeMap::new(),
+        cl: ClMove {
+            estimate: cl.map_or(f64::NAN, |e| e.value),
+            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
+            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+        },
+        nrmse_after,
+        shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
+        delta_aic: 0.0,
+        // Quantization adds no dynamics: it ranks as the model it extends.
+        aic: n_est as f64 * against.fit.sigma[0].powi(2).ln(),
+        lr_statistic: None,
+        lr_limit: None,
+        significant: nrmse_after < plain,
+        residual,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_the_step_of_quantized_readings_and_not_of_continuous_ones() {
+        let lsb = 16.0 / 1024.0;
+        let continuous: Vec<f64> = (0..3000).map(|k| 5.0 + 0.3 * (k as f64 * 0.01).sin() + 1e-4 * (k as f64 * 7.3).cos()).collect();
+        let quantized: Vec<f64> = continuous.iter().map(|x| (x / lsb).round() * lsb).collect();
+        let (step, _) = lattice(&quantized).unwrap();
+        assert!((step / lsb - 1.0).abs() < 1e-9, "{step}");
+        assert!(lattice(&continuous).is_none());
+    }
+}
