@@ -174,7 +174,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
     if !switched {
         not_tested.extend(SIMULATED_EFFECTS.iter().map(|e| NotTested {
-            name: e.0,
+            name: e.name,
             reason: "switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)",
         }));
     } else {
@@ -200,13 +200,22 @@ const EXACT_EFFECTS: [(&str, Free, f64); 2] = [("load_esr", Free::LoadEsr, 10e-3
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
-const SIMULATED_EFFECTS: [(&str, &[(Free, f64)], bool); 5] = [
-    ("diode_drop", &[(Free::DiodeDrop, 0.4)], false),
-    ("dcm", &[], true),
-    ("dead_time", &[(Free::DeadTime, 20e-9)], false),
-    ("inductor_saturation", &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], false),
-    ("cap_dc_bias", &[(Free::CapDcBias, 0.4)], false),
+const SIMULATED_EFFECTS: [SimulatedEffect; 5] = [
+    SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], dcm: false },
+    SimulatedEffect { name: "dcm", extra: &[], dcm: true },
+    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], dcm: false },
+    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], dcm: false },
+    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], dcm: false },
 ];
+
+/// A nonlinear effect fitted with the plant simulator.
+struct SimulatedEffect {
+    name: &'static str,
+    /// Free parameters besides Cl, with start values (NaN: from the data).
+    extra: &'static [(Free, f64)],
+    /// The low side is an ideal diode.
+    dcm: bool,
+}
 
 /// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the
 /// circuit values `start` (Cl from the model it extends).
@@ -214,7 +223,7 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
     let io = data.io.iter().sum::<f64>() / data.len() as f64;
     SIMULATED_EFFECTS
         .iter()
-        .filter_map(|&(name, extra, dcm)| {
+        .filter_map(|&SimulatedEffect { name, extra, dcm }| {
             let mut p = Params { dcm, ..*start };
             let mut free = vec![Free::Cl];
             for &(f, v) in extra {

@@ -33,7 +33,7 @@ pub(crate) fn lattice(v: &[f64]) -> Option<(f64, f64)> {
     // Steps below the file's decimal precision are rounding, not the lattice.
     let tiny = 1e-9 * distinct.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let lsb = distinct.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > tiny).fold(f64::INFINITY, f64::min);
-    if !(lsb > 0.0) {
+    if !lsb.is_finite() || lsb <= 0.0 {
         return None;
     }
     let offset = distinct[0];
