@@ -719,6 +719,8 @@ def main(argv=None):
     if a.truth:
         t = truth(a.circuit, duty0=float(duty[0]), L=a.L, RL=a.RL, fs=a.fs, U=a.U, io=a.io, **real)
         t["warmup"] = a.warmup
+        # The circuit values simulated, Cl included: the answer an identification is checked against.
+        t["params"] = params
         with open(a.truth, "w") as f:
             json.dump(t, f, indent=2)
             f.write("\n")

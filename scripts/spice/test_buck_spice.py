@@ -199,3 +199,125 @@ def test_cli_real_circuit_metadata_and_truth(tmp_path):
     t = json.loads(truth.read_text())
     assert t["circuit"] == "sync" and t["effects"]["dead_time"]["t_dead"] == 30e-9
     assert t["effects"]["switch_resistance"]["rds_on_high"] == 10e-3
+
+
+# --------------------------------------------------------------------------
+# The small data sets of the tests (scripts/spice/spice_fixtures.py): a live run of the
+# generator when ngspice is on PATH, else the committed files under tests/fixtures/spice/, so
+# these checks run on every machine. 500 PRBS periods (0.4/0.6), Cl = 4.7 uF; sync and async
+# at io = 2 A. The PRBS swings il through zero (down to about -6 A): the effects show with
+# both signs of the current.
+#
+# Per period k the inductor equation integrates exactly to the switch node's volt-second
+# loss against the ideal PWM waveform,
+#     loss_k = d_k*U - RL*il_avg_k - vout_avg_k - L*(il_{k+1} - il_k)/T,
+# which the CSV gives (period-start il and exact period averages); it is what a dead time,
+# a diode drop or Rds_on take from the switch node.
+
+import spice_fixtures  # noqa: E402
+
+RDS_ON = 10e-3  # the generator's default, also in the truth sidecar
+
+
+def _fixture(circuit):
+    return spice_fixtures.load(circuit)
+
+
+def _loss(f):
+    c = f.columns
+    U, L, RL, T = f.num("U"), f.num("L"), f.num("RL"), 1.0 / f.num("fs")
+    return (c["duty"][:-1] * U - RL * c["il_avg"][:-1] - c["vout_avg"][:-1]
+            - L * np.diff(c["il"]) / T)
+
+
+@pytest.mark.parametrize("circuit", list(spice_fixtures.FIXTURES))
+def test_fixture_follows_the_data_contract(circuit):
+    f = _fixture(circuit)
+    assert f.header[:5] == ["time", "duty", "vin", "io", "vout"] and "il" in f.header
+    for k in ("fs", "L", "RL", "C", "Rc", "U", "io"):
+        assert np.isfinite(f.num(k)) and f.num(k) >= 0, k
+    assert f.meta["circuit"] == circuit and f.meta["source"].startswith("ngspice")
+    n = len(f.columns["time"])
+    assert n == 500
+    np.testing.assert_allclose(f.columns["time"], np.arange(n) / f.num("fs"), rtol=0, atol=1e-15)
+    assert all(np.all(np.isfinite(v)) for v in f.columns.values())
+    assert set(np.unique(f.columns["duty"])) == {0.4, 0.6}
+    # The data carries no effect parameters (as in test_cli_real_circuit_metadata_and_truth);
+    # the sidecar does, with the circuit values simulated.
+    head = "\n".join(line for line in f.csv_text.splitlines() if line.startswith("#")).lower()
+    for word in ("dead", "rds", "vf"):
+        assert word not in head, word
+    assert f.truth["circuit"] == circuit
+    assert f.truth["params"]["Cl"] == f.num("Cl") == 4.7e-6
+    expected = {"ideal": set(), "sync": {"switch_resistance", "dead_time"},
+                "async": {"switch_resistance", "diode_drop", "dcm"}}[circuit]
+    assert set(f.truth["effects"]) == expected
+
+
+def test_ideal_fixture_loses_no_volt_seconds():
+    # The ideal switch node's edges are exact in volt-seconds; the ngspice error (a few uV in
+    # vout_avg, ~10 uA in il) bounds the loss far below 0.1 mV.
+    loss = _loss(_fixture("ideal"))
+    assert np.max(np.abs(loss)) < 1e-4
+
+
+def test_sync_fixture_dead_time_loss_follows_the_sign_of_il():
+    # Dead time before each turn-on, body diodes conducting: with il > 0 at both edges the
+    # node sits at -Vbd (loss td*(U + Vbd) before the high side turns on, td*Vbd before the
+    # low side); with il < 0 the high side's body diode holds it at U + Vbd (gains of td*Vbd
+    # and td*(U + Vbd)). il at the edges: the period-start sample and, at the high side's
+    # turn-off, that plus the on-time rise (U - vout)*d*T/L.
+    # Rds_on (equal high and low side) adds RDS_ON*il_avg. Tolerance 30 mV as in
+    # test_sync_buck_dead_time_loss (threshold crossings vs ramp midpoints, node slew).
+    f = _fixture("sync")
+    c, T, U, L = f.columns, 1.0 / f.num("fs"), f.num("U"), f.num("L")
+    td = f.truth["effects"]["dead_time"]["t_dead"]
+    d, il, va = c["duty"][:-1], c["il"], c["vout_avg"][:-1]
+    valley, after = il[:-1], il[1:]
+    peak = valley + (U - va) * d * T / L
+    edge = lambda i: _body_diode_vf(abs(i))  # noqa: E731
+    predicted = np.array([td / T * ((U + edge(a)) if a > 0 else -edge(a))
+                          + td / T * (edge(b) if b > 0 else -(U + edge(b)))
+                          for a, b in zip(valley, peak)])
+    r = _loss(f) - RDS_ON * c["il_avg"][:-1]
+    pos = (valley > 0.5) & (after > 0.5)
+    neg = (peak < -0.5) & (after < -0.5)
+    assert pos.sum() > 100 and neg.sum() > 10, (pos.sum(), neg.sum())
+    assert np.max(np.abs((r - predicted)[pos | neg])) < 30e-3
+    # The signature itself: ~ +td/T*(U + 2 Vbd) = +0.13 V with il > 0, the opposite with il < 0.
+    assert 0.09 < r[pos].mean() < 0.16 and -0.16 < r[neg].mean() < -0.09
+
+
+def test_async_fixture_diode_drop_and_dcm():
+    # CCM periods (il > 0 throughout): the Schottky carries il for (1-d)*T,
+    #     loss = (1-d)*Vf(il) + d*Rds_on*il  (30 mV, as in test_async_buck_ccm_diode_drop).
+    # The diode blocks reverse current: where the synchronous buck swings il to -6 A, the
+    # asynchronous one stops at zero (DCM) and rings (the snubber damps it; |il| < 0.1 A).
+    f = _fixture("async")
+    c = f.columns
+    il, ia, d = c["il"], c["il_avg"][:-1], c["duty"][:-1]
+    vf = np.array([buck_spice.diode_vf(max(i, 1e-3), buck_spice.diode_params()) for i in ia])
+    predicted = (1 - d) * vf + d * RDS_ON * ia
+    ccm = (il[:-1] > 0.3) & (il[1:] > 0.3)
+    dcm = np.abs(il[1:]) < 0.1
+    assert ccm.sum() > 100 and dcm.sum() > 100, (ccm.sum(), dcm.sum())
+    assert np.max(np.abs((_loss(f) - predicted)[ccm])) < 30e-3
+    assert il.min() > -0.1 and _fixture("sync").columns["il"].min() < -1.0
+
+
+@pytest.mark.parametrize("circuit", list(spice_fixtures.FIXTURES))
+def test_fixtures_are_current(circuit):
+    # The committed fixture is what the generator makes now (else regenerate them with
+    # `.venv/bin/python scripts/spice/spice_fixtures.py`). Another ngspice build may round
+    # differently: 1 uV/uA on the linear ideal circuit, the solver's stated accuracy on the
+    # nonlinear ones (0.25 mV, 0.6 mA; see REAL_SOLVER_OPTIONS).
+    _needs_ngspice()
+    live, committed = spice_fixtures.live(circuit), spice_fixtures.committed(circuit)
+    assert live.header == committed.header
+    assert {k: v for k, v in live.meta.items() if k != "source"} == \
+        {k: v for k, v in committed.meta.items() if k != "source"}
+    assert live.truth == committed.truth
+    tol = 1e-6 if circuit == "ideal" else 1e-3
+    for name in live.header:
+        err = np.max(np.abs(live.columns[name] - committed.columns[name]))
+        assert err < tol, f"{circuit} {name} differs by {err:.3e}: regenerate the fixtures"

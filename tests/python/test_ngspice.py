@@ -1,5 +1,7 @@
 """The FMU in switched mode against ngspice (an independent circuit simulator) on the ideal-switch
-buck: 3001 periods of a PRBS duty (0.4/0.6, 8 periods per bit).
+buck: 3001 periods of a PRBS duty (0.4/0.6, 8 periods per bit) when ngspice is installed, and
+the 500-period ideal fixture (scripts/spice/spice_fixtures.py: a live run when ngspice is
+installed, else the committed tests/fixtures/spice/ideal.csv) always.
 
 Tolerances (issue 2): period-averaged `vout` within 1 mV and `il` within 10 mA. The ngspice run
 itself is accurate to a few µV and ~10 µA at its T/100 maximum step (see
@@ -20,18 +22,36 @@ from fmu_harness import SWITCHED, drive, open_slave
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts" / "spice"))
 import buck_spice  # noqa: E402
+import spice_fixtures  # noqa: E402
 
-pytestmark = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
+needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
 
 PERIODS = 3001
 
 
+@needs_ngspice
 @pytest.mark.parametrize("cl", [0.2e-6, 100e-6])
 def test_fmu_matches_ngspice_over_3001_prbs_periods(fmu_dir, model_description, cl):
     io = 1.0
     duty = buck_spice.prbs_duty(PERIODS, bit_periods=8, low=0.4, high=0.6, seed=1)
     spice = buck_spice.simulate(duty, Cl=cl, io=io)
-    with open_slave(fmu_dir, model_description, f"vs-ngspice-{cl}",
+    assert_fmu_matches(fmu_dir, model_description, f"vs-ngspice-{cl}", duty, cl, io, spice)
+
+
+def test_fmu_matches_the_ngspice_fixture(fmu_dir, model_description):
+    # The fixture starts at the averaged DC point of its first duty (no warm-up), like the FMU.
+    f = spice_fixtures.load("ideal")
+    assert f.truth["warmup"] == 0
+    c = f.columns
+    spice = {"vout_avg": c["vout_avg"], "il_avg": c["il_avg"],
+             "vout_start": c["vout"], "il_start": c["il"]}
+    assert_fmu_matches(fmu_dir, model_description, "vs-ngspice-fixture", c["duty"],
+                       f.num("Cl"), f.num("io"), spice)
+
+
+def assert_fmu_matches(fmu_dir, model_description, name, duty, cl, io, spice):
+    """Drives the FMU in switched mode with `duty` and compares it with the ngspice run."""
+    with open_slave(fmu_dir, model_description, name,
                     start={"mode": SWITCHED, "Cl": cl, "io": io, "duty": float(duty[0])}) as fmu:
         rows = drive(fmu, model_description, duty)  # period ends: vout, il, vc, vout_avg, il_avg
     vout_avg_err = np.abs(rows[:, 3] - spice["vout_avg"]).max()
