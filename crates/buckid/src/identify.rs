@@ -15,13 +15,20 @@ use serde::Serialize;
 use crate::{IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
 
 /// Splits `NAME=VALUE`.
-fn pair(s: &str, flag: &str) -> Result<(String, String)> {
+pub(crate) fn pair(s: &str, flag: &str) -> Result<(String, String)> {
     let (k, v) = s.split_once('=').with_context(|| format!("{flag} {s:?}: expected NAME=VALUE"))?;
     Ok((k.trim().to_string(), v.trim().to_string()))
 }
 
 /// Known circuit values from the data's metadata; thesis values (with a note) where absent.
 pub(crate) fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
+    nominal_with(data, &BTreeMap::new())
+}
+
+/// Known circuit values: `given` (e.g. an FMU's parameter start values, by name) first, then
+/// the data's metadata, then the thesis values. Returns the values and one note per value that
+/// was assumed (not given) or that the metadata contradicts.
+pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Result<(Params, Vec<String>)> {
     let mut p = Params::default();
     let mut assumed = Vec::new();
     type Field = fn(&mut Params) -> &mut f64;
@@ -32,9 +39,21 @@ pub(crate) fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
         ("Rc", |p| &mut p.rc),
         ("fs", |p| &mut p.fs),
     ];
+    let valid = |key: &str, v: f64| v.is_finite() && v > 0.0 || (key == "RL" && v == 0.0);
     for (key, field) in fields {
-        match data.meta_f64(key)? {
-            Some(v) if v.is_finite() && v > 0.0 || (key == "RL" && v == 0.0) => *field(&mut p) = v,
+        let meta = data.meta_f64(key)?;
+        if let Some(&v) = given.get(key) {
+            if !valid(key, v) {
+                bail!("the FMU's start value `{key} = {v}` is not a valid circuit value");
+            }
+            *field(&mut p) = v;
+            if let Some(m) = meta.filter(|m| (m - v).abs() > 1e-9 * v.abs()) {
+                assumed.push(format!("{key} = {v:e} from the FMU (the data's metadata says {m:e})"));
+            }
+            continue;
+        }
+        match meta {
+            Some(v) if valid(key, v) => *field(&mut p) = v,
             Some(v) => bail!("metadata `{key} = {v}` is not a valid circuit value"),
             None if key == "fs" => {
                 p.fs = 1.0 / data.sample_period();
@@ -270,7 +289,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if let Some(dir) = &args.report {
-        let file = crate::report::write(dir, &id, &nominal, &source, excitation_text.as_deref())?;
+        let file = crate::report::identify::write(dir, &id, &nominal, &source, excitation_text.as_deref())?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())

@@ -6,6 +6,7 @@
 
 mod diagnose;
 mod identify;
+mod nominal_fmu;
 mod report;
 mod svg;
 
@@ -35,12 +36,35 @@ struct DiagnoseArgs {
     /// CSV data file (the data contract), e.g. from ngspice (`scripts/spice/buck_spice.py`).
     #[arg(long)]
     data: PathBuf,
+    /// The nominal model given as an FMI 2.0 Co-Simulation FMU: its start values of L, RL, C,
+    /// Rc, fs and `mode` set the nominal circuit and model, and it is also run on the data's
+    /// inputs to report its own held-out error.
+    #[arg(long)]
+    fmu: Option<PathBuf>,
+    /// The nominal simulation model (default: the FMU's `mode`, else averaged).
+    #[arg(long, value_enum)]
+    nominal: Option<NominalChoice>,
+    /// Map an input/output role (duty, io, vin, vout) to a variable of the --fmu.
+    #[arg(long = "map", value_name = "ROLE=NAME", requires = "fmu")]
+    map: Vec<String>,
     /// Fraction of the samples, at the end, held out for judging.
     #[arg(long, default_value_t = 1.0 / 3.0)]
     holdout: f64,
     /// Write the diagnosis as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write an HTML report with SVG plots into this folder.
+    #[arg(long)]
+    report: Option<PathBuf>,
+}
+
+/// The nominal model of a diagnosis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum NominalChoice {
+    /// The averaged circuit (no switching ripple).
+    Averaged,
+    /// The ideal switched circuit sampled at period starts (sampled-data PWM model).
+    Switched,
 }
 
 /// Model structure choice.

@@ -1,7 +1,9 @@
 //! `buckid` as a user runs it: data files in, summary/JSON out, clear errors for bad input.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::OnceLock;
+use std::time::SystemTime;
 
 use buck_model::{Mode, Params};
 use estimator::experiment::{Experiment, ModelPlant, run};
@@ -26,6 +28,56 @@ fn write_data(dir: &Path, cl: f64) -> std::path::PathBuf {
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn root() -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    root.canonicalize().unwrap_or(root)
+}
+
+/// A committed ngspice data set (`scripts/spice/spice_fixtures.py`).
+fn spice_fixture(name: &str) -> PathBuf {
+    root().join("tests/fixtures/spice").join(name)
+}
+
+/// Newest modification time of the files below `dir` (recursively).
+fn newest(dir: &Path) -> Option<SystemTime> {
+    let mut latest = None;
+    for entry in std::fs::read_dir(dir).ok()?.flatten() {
+        let path = entry.path();
+        let t = if path.is_dir() { newest(&path) } else { entry.metadata().ok()?.modified().ok() };
+        latest = latest.max(t);
+    }
+    latest
+}
+
+/// The project's packaged FMU, (re)built with `cargo xtask fmu` once per run when it is missing
+/// or older than its sources (as in the importer's tests: `cargo test` runs before packaging).
+fn buck_fmu() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let root = root();
+        let fmu = root.join("fmu/BuckConverter.fmu");
+        let built = std::fs::metadata(&fmu).and_then(|m| m.modified()).ok();
+        let sources = ["crates/buck-fmu", "crates/buck-model", "crates/fmi2-schema", "crates/fmi2-sys"]
+            .iter()
+            .filter_map(|d| newest(&root.join(d)))
+            .max();
+        if built.is_none() || built < sources {
+            eprintln!("building {} with `cargo xtask fmu` (missing or stale)", fmu.display());
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let status = Command::new(cargo).current_dir(&root).args(["xtask", "fmu"]).status().expect("run cargo xtask fmu");
+            assert!(status.success() && fmu.is_file(), "`cargo xtask fmu` failed ({status})");
+        }
+        fmu
+    })
+}
+
+fn assert_clean_failure(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert!(!o.status.success(), "accepted; stderr: {err}");
+    assert!(err.contains(needle), "{err:?} lacks {needle:?}");
+    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]
@@ -85,4 +137,148 @@ fn bad_fmus_and_bad_arguments_fail_cleanly() {
     let data = write_data(dir.path(), 1e-6);
     let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--holdout", "0.95"]);
     assert!(!o.status.success() && stderr(&o).contains("hold-out fraction"), "{}", stderr(&o));
+}
+
+#[test]
+fn diagnose_writes_a_report_whose_figures_hold_the_diagnosis() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write_data(dir.path(), 4.7e-6);
+    let out = dir.path().join("dx.json");
+    let report = dir.path().join("report");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert!(j.get("fmu").is_none(), "no --fmu, no fmu member");
+    let read = |f: &str| std::fs::read_to_string(report.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+    // One bar per band, operating point and window of the JSON, each with its value.
+    let w = &j["where"];
+    for (file, key) in [("gap_bands.svg", "bands"), ("gap_operating_points.svg", "operating_points"), ("gap_windows.svg", "windows")] {
+        let svg = read(file);
+        let n = w[key].as_array().unwrap().len();
+        assert!(n > 0, "{key} empty");
+        assert_eq!(svg.matches(r#"<rect class="bar""#).count(), n, "{file}");
+        assert!(svg.starts_with("<?xml") && svg.trim_end().ends_with("</svg>"), "{file}");
+    }
+    let bands = read("gap_bands.svg");
+    let first = &w["bands"][0];
+    let label = format!("{:.1}–{:.1} kHz", first["from_hz"].as_f64().unwrap() / 1e3, first["to_hz"].as_f64().unwrap() / 1e3);
+    assert!(bands.contains(&label), "{label} missing");
+    // The held-out overlay: measured, nominal and (verdict ≠ none) the verdict's simulation,
+    // each a polyline through every held-out sample.
+    let heldout = read("heldout.svg");
+    let held_out = 1500 - (1500.0 * (1.0 - 1.0 / 3.0_f64)).round() as usize;
+    let lines: Vec<usize> = heldout.split("points=\"").skip(1).map(|p| p.split('"').next().unwrap().split_whitespace().count()).collect();
+    let expected = if j["verdict"] == "none" { 2 } else { 3 };
+    assert_eq!(lines, vec![held_out; expected], "points per polyline");
+    // The page: the figures inline, the table of effects, the verdict and the effects not tested.
+    let html = read("index.html");
+    assert_eq!(html.matches("<svg").count(), 4, "bands, operating points, windows, overlay");
+    for e in j["effects"].as_array().unwrap() {
+        assert!(html.contains(&format!("<td>{}</td>", e["name"].as_str().unwrap())) || html.contains(&format!("<b>{}</b>", e["name"].as_str().unwrap())));
+    }
+    assert!(html.contains(&format!("Verdict: {}", j["verdict"].as_str().unwrap())));
+    for n in j["not_tested"].as_array().unwrap() {
+        assert!(html.contains(n["name"].as_str().unwrap()));
+    }
+}
+
+#[test]
+fn diagnose_runs_the_bundled_fmu_as_given_and_takes_its_circuit() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = spice_fixture("ideal.csv");
+    let fmu = buck_fmu();
+    let out = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--fmu", fmu.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("circuit values from the FMU's start values: C, L, RL, Rc, fs"), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("FMU         held-out NRMSE"));
+    let j = json(&out);
+    let f = &j["fmu"];
+    assert_eq!(f["path"], fmu.display().to_string());
+    assert_eq!(f["model_name"], "BuckConverter");
+    // Our FMU starts in mode 1: the averaged nominal model.
+    assert_eq!(f["mode"], "averaged");
+    assert_eq!(j["nominal"], "averaged");
+    assert_eq!(f["circuit"]["L"].as_f64(), Some(3.3e-6));
+    // Run with the nominal fit's Cl, the averaged FMU is the nominal model itself: the same
+    // held-out error up to the initial state (the fit estimates it, the FMU starts at the DC
+    // point of the first duty), 2 % here.
+    assert_eq!(f["cl"], j["gap_before"]["cl"]);
+    let (fmu_nrmse, before) = (f["nrmse"].as_f64().unwrap(), j["gap_before"]["nrmse"].as_f64().unwrap());
+    assert!(before > 0.01, "the averaged model misses the ripple: {before}");
+    assert!((fmu_nrmse - before).abs() < 0.02 * before, "FMU {fmu_nrmse} vs nominal {before}");
+
+    // --nominal overrides the FMU's mode; the FMU still runs as given.
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--fmu", fmu.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nominal model switched as asked"), "{}", stderr(&o));
+    let j = json(&out);
+    assert_eq!(j["nominal"], "switched");
+    assert!((j["fmu"]["nrmse"].as_f64().unwrap() - fmu_nrmse).abs() < 0.02 * fmu_nrmse);
+    assert!(j["gap_before"]["nrmse"].as_f64().unwrap() < 0.1 * before, "the switched model has the ripple");
+}
+
+#[test]
+fn diagnose_rejects_bad_fmus_and_options_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write_data(dir.path(), 4.7e-6);
+    let data = data.to_str().unwrap();
+    let absent = dir.path().join("absent.fmu");
+    let o = buckid(&["diagnose", "--data", data, "--fmu", absent.to_str().unwrap()]);
+    assert_clean_failure(&o, &format!("FMU {} does not exist", absent.display()));
+    let not_zip = dir.path().join("x.fmu");
+    std::fs::write(&not_zip, "not a zip").unwrap();
+    let o = buckid(&["diagnose", "--data", data, "--fmu", not_zip.to_str().unwrap()]);
+    assert_clean_failure(&o, "is not a valid FMU (zip) archive");
+    let o = buckid(&["diagnose", "--data", data, "--nominal", "spice"]);
+    assert_clean_failure(&o, "invalid value 'spice' for '--nominal <NOMINAL>'");
+    assert!(stderr(&o).contains("averaged") && stderr(&o).contains("switched"), "lists the choices: {}", stderr(&o));
+    let o = buckid(&["diagnose", "--data", data, "--map", "vout=V"]);
+    assert_clean_failure(&o, "--fmu");
+}
+
+#[test]
+fn identify_and_diagnose_the_ngspice_fixture() {
+    // tests/fixtures/spice/ideal.csv: ngspice, ideal switch, 500 PRBS periods, no noise; the
+    // truth sidecar holds the Cl simulated.
+    let dir = tempfile::tempdir().unwrap();
+    let data = spice_fixture("ideal.csv");
+    let truth = json(&spice_fixture("ideal.truth.json"))["params"]["Cl"].as_f64().unwrap();
+    let out = dir.path().join("id.json");
+    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    let est = j["cl"]["estimate"].as_f64().unwrap();
+    let (lo, hi) = (j["cl"]["ci95"][0].as_f64().unwrap(), j["cl"]["ci95"][1].as_f64().unwrap());
+    assert!(lo <= est && est <= hi, "{est} outside its CI [{lo}, {hi}]");
+    // Noise-free data: the CI (±6e-6 relative) reflects only ngspice's own error, so the
+    // tolerance is that error's size (tens of ppm; buck_spice.py) with margin, 0.1 %, or the
+    // CI half-width when wider.
+    let tol = (0.5 * (hi - lo)).max(1e-3 * truth);
+    assert!((est - truth).abs() < tol, "Cl {est} vs truth {truth} (±{tol})");
+    assert_eq!(j["model"], "pwm", "the switched data needs the ripple-exact model");
+    assert_eq!(j["samples"].as_u64().unwrap() + j["validation_samples"].as_u64().unwrap(), 500);
+    assert!(j["fit_percent"]["simulation"].as_f64().unwrap() > 99.0 && j["seconds"].as_f64().unwrap() > 0.0);
+
+    let out = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert!(j["gap_before"]["nrmse"].as_f64().unwrap() > 0.01, "the averaged model misses the ripple");
+    assert!(j["where"].is_object() && j["where"]["bands"].as_array().is_some_and(|b| !b.is_empty()));
+    let effects = j["effects"].as_array().unwrap();
+    assert!(!effects.is_empty());
+    for e in effects {
+        for key in ["name", "params", "nrmse_after", "shrink_percent"] {
+            assert!(e.get(key).is_some(), "effect lacks {key}: {e}");
+        }
+    }
+    let sorted = effects.windows(2).all(|w| w[0]["nrmse_after"].as_f64() <= w[1]["nrmse_after"].as_f64());
+    assert!(sorted, "effects are best first");
+    let verdict = j["verdict"].as_str().unwrap();
+    let judged = effects.iter().find(|e| e["name"] == verdict).unwrap_or_else(|| panic!("verdict {verdict} is not among the effects"));
+    // Whatever it names, the verdict's model closes the gap and recovers Cl.
+    assert!(judged["shrink_percent"].as_f64().unwrap() > 90.0, "{judged}");
+    let cl = judged["cl"]["estimate"].as_f64().unwrap();
+    assert!((cl - truth).abs() < 1e-3 * truth, "verdict's Cl {cl} vs truth {truth}");
 }

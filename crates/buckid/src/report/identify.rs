@@ -1,18 +1,18 @@
-//! The HTML report of `identify`: held-out measured vs model, residual ACF and input CCF with
+//! The report of `identify`: held-out measured vs model, residual ACF and input CCF with
 //! their 99 % bands, and the Bode plot of the fitted model against the nominal one.
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use buck_model::Params;
 use estimator::identify::Identification;
 use estimator::model::frequency_response;
 use estimator::validate::LAGS;
 
+use super::{Page, table};
 use crate::svg::{Plot, Series, esc};
 
-/// Writes `index.html` into `dir` and returns its path.
+/// Writes `index.html` and the figures into `dir` and returns the page's path.
 pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str, excitation: Option<&str>) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let best = id.best();
     let v = &best.validation;
     let shown = v.traces.time.len().min(400);
@@ -67,33 +67,25 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str, ex
             Series { name: "CI95 bounds", color: "#f4a582", points: bode_of(est.1.0), stems: false },
         ],
     };
-    let rows: String = id
+    let rows: Vec<Vec<String>> = id
         .candidates
         .iter()
         .map(|c| {
             let e = c.fit.estimate("Cl");
-            format!(
-                "<tr><td>{}</td><td>{:.4}</td><td>[{:.4}, {:.4}]</td><td>{:.2}</td><td>{:.2}</td><td>{:.2}</td></tr>",
-                c.structure.name(),
-                e.map_or(f64::NAN, |e| e.value * 1e6),
-                e.map_or(f64::NAN, |e| e.ci95.0 * 1e6),
-                e.map_or(f64::NAN, |e| e.ci95.1 * 1e6),
-                c.validation.fit_simulation[0],
-                c.validation.fit_prediction[0],
-                c.seconds * 1e3
-            )
+            vec![
+                c.structure.name().to_string(),
+                format!("{:.4}", e.map_or(f64::NAN, |e| e.value * 1e6)),
+                format!("[{:.4}, {:.4}]", e.map_or(f64::NAN, |e| e.ci95.0 * 1e6), e.map_or(f64::NAN, |e| e.ci95.1 * 1e6)),
+                format!("{:.2}", c.validation.fit_simulation[0]),
+                format!("{:.2}", c.validation.fit_prediction[0]),
+                format!("{:.2}", c.seconds * 1e3),
+            ]
         })
         .collect();
-    let html = format!(
-        r#"<!doctype html><html><head><meta charset="utf-8"><title>buckid identify</title>
-<style>body{{font-family:sans-serif;max-width:760px;margin:2em auto}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>
-<h1>Load capacitance identification</h1>
-<p>Source: <code>{}</code>.{} {} estimation samples, {} held-out samples. Chosen model: <b>{}</b> (best held-out one-step prediction).
-Residuals {} white (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} vs {:.1}).</p>
-<table><tr><th>model</th><th>Cl [µF]</th><th>95 % CI [µF]</th><th>sim fit [%]</th><th>pred fit [%]</th><th>fit time [ms]</th></tr>{rows}</table>
-{}{}{}{}
-</body></html>
-"#,
+    let mut page = Page::new("buckid identify", "Load capacitance identification");
+    page.html(&format!(
+        "<p>Source: <code>{}</code>.{} {} estimation samples, {} held-out samples. Chosen model: <b>{}</b> (best held-out one-step prediction).
+Residuals {} white (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} vs {:.1}).</p>",
         esc(source),
         excitation.map_or(String::new(), |e| format!(" Excitation: {}.", esc(e))),
         id.estimation_samples,
@@ -105,12 +97,11 @@ Residuals {} white (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} 
         if r.independent_of_input() { "independent" } else { "NOT independent" },
         r.ccf_statistic,
         r.ccf_limit,
-        traces.render(),
-        acf.render(),
-        ccf.render(),
-        bode.render(),
-    );
-    let path = dir.join("index.html");
-    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
-    Ok(path)
+    ));
+    page.html(&table(&["model", "Cl [µF]", "95 % CI [µF]", "sim fit [%]", "pred fit [%]", "fit time [ms]"], &rows));
+    page.figure("heldout", traces.render());
+    page.figure("acf", acf.render());
+    page.figure("ccf", ccf.render());
+    page.figure("bode", bode.render());
+    page.write(dir)
 }
