@@ -273,6 +273,12 @@ impl ModelPlant {
         Self { converter, excite: VarId::Duty, adc: false }
     }
 
+    /// The same plant reporting the ADC readings (`vout_adc`, `il_adc`: quantization and sensor
+    /// noise of the digital controller's converter) instead of the true period-start samples.
+    pub fn reading_adc(self) -> Self {
+        Self { adc: true, ..self }
+    }
+
     /// A configured converter in closed loop: the experiment drives `duty_dither`, and the
     /// samples are the ADC readings the controller sees (with its sensor noise).
     pub fn closed_loop(converter: Converter) -> Self {

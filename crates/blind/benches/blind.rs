@@ -1,0 +1,86 @@
+//! The blind check of the gap diagnosis: seeded datasets with one withheld effect each (and
+//! clean ones), from the FMU and from ngspice, diagnosed without being told; prints the
+//! confusion matrix, the four targets and the diagnosis time.
+//!
+//! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]`
+//!
+//! The FMU is `fmu/BuckConverter.fmu` (`cargo xtask fmu`; the same model in process when it is
+//! missing); ngspice datasets need `ngspice` on PATH and the `.venv` of `scripts/setup`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
+use blind::{
+    Outcome, PLANT_EFFECTS, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case,
+    repository_root, rng, score, spice_case,
+};
+
+fn arg(name: &str) -> Option<String> {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned()
+}
+
+fn percent(a: usize, b: usize) -> String {
+    if b == 0 { "–".into() } else { format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64) }
+}
+
+fn main() {
+    let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
+    let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
+    let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
+    let fmu = bundled_fmu();
+    let spice = if std::env::args().any(|a| a == "--no-spice") { None } else { Spice::find(&repository_root()) };
+    match &fmu {
+        Some(p) => eprintln!("plant datasets from {}", p.display()),
+        None => eprintln!("fmu/BuckConverter.fmu not found (cargo xtask fmu): plant datasets from the same model in process"),
+    }
+    if spice.is_none() {
+        eprintln!("ngspice or .venv missing (scripts/setup): no ngspice datasets");
+    }
+    let mut outcomes: Vec<Outcome> = Vec::new();
+    let mut index = 0u64;
+    for _ in 0..per_effect {
+        for effect in PLANT_EFFECTS {
+            index += 1;
+            let mut r = rng(seed, index);
+            let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");
+            let o = diagnose_case(&case);
+            eprintln!("{:>3} {:10} {:20} → {:20} {:.1} s", index, o.source, effect, o.verdict, o.seconds);
+            outcomes.push(o);
+        }
+    }
+    if let Some(spice) = &spice {
+        for _ in 0..spice_per_effect {
+            for effect in SPICE_EFFECTS {
+                index += 1;
+                let mut r = rng(seed, index);
+                let case = spice_case(draw(effect, &mut r), seed ^ index, spice).expect("ngspice dataset");
+                let o = diagnose_case(&case);
+                eprintln!("{:>3} {:10} {:20} → {:20} {:.1} s", index, o.source, effect, o.verdict, o.seconds);
+                outcomes.push(o);
+            }
+        }
+    }
+    for source in ["fmu", "in-process", "ngspice"] {
+        let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();
+        if part.is_empty() {
+            continue;
+        }
+        println!("\n## {source} datasets ({}; seed {seed})\n", part.len());
+        println!("{}", confusion_matrix(&part));
+    }
+    let s = score(&outcomes);
+    let mut times: Vec<f64> = outcomes.iter().map(|o| o.seconds).collect();
+    times.sort_by(f64::total_cmp);
+    println!("| target | result |\n|---|---|");
+    println!("| withheld effect named (≥ 90 %) | {} |", percent(s.named, s.effect_cases));
+    println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
+    println!("| ≥ 70 % of the held-out gap closed, of the named | {} |", percent(s.closed_70, s.named));
+    println!("| true Cl inside the CI95, of the named | {} |", percent(s.cl_covered, s.named));
+    println!(
+        "| diagnosis time, 3001 samples (≤ 1 s) | median {:.2} s, max {:.2} s |",
+        times[times.len() / 2],
+        times[times.len() - 1]
+    );
+    println!("\nMisses:");
+    for o in outcomes.iter().filter(|o| o.verdict != o.truth.effect) {
+        println!("- {} {}: said {} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.verdict, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+    }
+}
