@@ -95,6 +95,11 @@ struct Trial {
     discrete: bool,
 }
 
+/// Residual variance of a candidate's fit on the estimation part.
+fn variance(c: &Candidate) -> f64 {
+    c.fit.sigma[0].powi(2)
+}
+
 /// Held-out NRMSE of a candidate's free-run simulation.
 pub(crate) fn held_out_nrmse(c: &Candidate) -> f64 {
     1.0 - c.validation.fit_simulation[0] / 100.0
@@ -178,9 +183,17 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
             reason: "switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)",
         }));
     } else {
+        // Judged against the simulator with Cl alone (the same criterion window and initial
+        // state treatment), and placed on the others' AIC scale through the model it extends.
         let cl = exact_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
-        for (name, trial) in simulated_trials(data, &Params { cl, ..*nominal }, n_est) {
-            best.push((name, trial, exact_base));
+        let start = Params { cl, ..*nominal };
+        if let Ok(reference) = estimator::simulated::fit(data, &start, &[Free::Cl], n_est) {
+            let offset = n_est as f64 * (variance(exact_base).ln() - variance(&reference).ln());
+            for (name, trial) in simulated_trials(data, &start, n_est) {
+                let mut fit = judge(name, trial, &reference).0;
+                fit.aic += offset;
+                extra.push(fit);
+            }
         }
     }
     if let Some(fit) = crate::quantization::candidate(data, exact_base, n_est, nrmse_before, cl_before) {
@@ -302,7 +315,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
 /// otherwise, and better on the held-out data); shrink and Cl movement against the nominal.
 fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> (EffectFit, Candidate) {
-    let var = |c: &Candidate| c.fit.sigma[0].powi(2);
+    let var = variance;
     let nrmse_after = held_out_nrmse(&t.cand);
     let nrmse_against = held_out_nrmse(against);
     let lr = n_est as f64 * (var(against) / var(&t.cand)).ln();

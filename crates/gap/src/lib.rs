@@ -125,7 +125,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // effects (dcm inside diode_drop) the richer one wins only by more than its parameter's worth.
     let verdict = effects
         .iter()
-        .filter(|e| e.significant && e.shrink_percent > 0.0)
+        .filter(|e| e.significant)
         .min_by(|a, b| a.aic.total_cmp(&b.aic))
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // The noise floor is what the best significant model leaves (else the nominal residual).

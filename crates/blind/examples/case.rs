@@ -1,0 +1,23 @@
+//! One dataset of the blind bench, diagnosed with every candidate printed: for looking into a
+//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
+use blind::{bundled_fmu, draw, plant_case, rng};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let (seed, index): (u64, u64) = (args[1].parse().unwrap(), args[2].parse().unwrap());
+    let effect = blind::PLANT_EFFECTS.iter().find(|e| **e == args[3]).expect("effect name");
+    let truth = draw(effect, &mut rng(seed, index));
+    println!("{truth:?}");
+    let case = plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap();
+    let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };
+    let dx = gap::diagnose(&case.data, &case.nominal, &opts).unwrap();
+    println!("before {:.5} Cl {:.4} µF", dx.gap_before.nrmse, dx.gap_before.cl * 1e6);
+    for e in &dx.effects {
+        println!(
+            "{:20} nrmse {:.5} shrink {:6.1} aic {:10.1} dAIC {:8.1} LR {:?} sig {} Cl {:.4} {:?} {:?}",
+            e.name, e.nrmse_after, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.params, e.ci95
+        );
+    }
+    println!("verdict {}", dx.verdict);
+}
