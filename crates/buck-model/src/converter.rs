@@ -1,8 +1,9 @@
 //! The converter as a simulator: inputs, state, exact stepping over any step length.
-use nalgebra::{DMatrix, SMatrix, Vector2, Vector4};
+use nalgebra::{Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
 use crate::digital::{Control, Digital};
+use crate::flow::{Ladder, Point, Transition, Watch, pad};
 use crate::lti::Lti;
 use crate::variables::{self, Type, VarId};
 use crate::{Mode, ModelError, Params};
@@ -70,16 +71,15 @@ const SNAP: f64 = 1e-9;
 /// Pieces with cached transition matrices (PRBS between two duty levels needs four, dead time
 /// and diode conduction a few more).
 const CACHE_SLOTS: usize = 16;
+/// Circuits with cached [`Ladder`]s (diode conduction and the blocked inductor, or two
+/// saturation regions, each of one or two series resistances; under `cap_dc_bias` they are
+/// rebuilt every period).
+const LADDER_SLOTS: usize = 8;
 /// Relative tolerance (of the period) of the instants of state events (`il = 0`, `|il| = isat`).
 const ROOT_TOL: f64 = 1e-15;
 /// State events handled within one piece before the rest of it is taken as it is (a guard
 /// against chattering; no physical configuration comes near it).
 const MAX_EVENTS: usize = 64;
-
-/// Largest number of circuit states (`[il, vc, vcl, ic]`, `ic` only with `esl`).
-const NX: usize = 4;
-type Mat = SMatrix<f64, NX, NX>;
-type Inp = SMatrix<f64, NX, 2>;
 
 /// Which gate of the half bridge is on over an interval fixed by the PWM timing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -111,49 +111,21 @@ enum Topology {
     Blocked,
 }
 
-/// Identity of a cached transition: the linear circuit (series resistance, incremental
-/// inductance, load capacitance, blocked inductor) and the piece length, all as bits.
+/// Identity of a linear circuit: series resistance, incremental inductance, load capacitance
+/// (as bits) and the blocked inductor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Key {
-    tau: u64,
+struct Circuit {
     r: u64,
     l: u64,
     cl: u64,
     blocked: bool,
 }
 
-/// Transition over one held-input piece: `x(τ) = ad·x + bd·u`, `∫x = ia·x + ib·u` with
-/// `u = [u_sw, io]`. States beyond the configuration's count stay zero (their rows and columns
-/// are zero).
+/// A cached transition of a circuit over a whole gate interval, inputs `u = [u_sw, io]`.
 #[derive(Debug, Clone)]
 struct Piece {
-    key: Key,
-    ad: Mat,
-    bd: Inp,
-    ia: Mat,
-    ib: Inp,
-}
-
-impl Piece {
-    /// `(x(τ), z + ∫x)`.
-    ///
-    /// Summed in the order of the ideal 3-state model's `[[ad, 0], [ia, I]]·[x; z] + Γ·u`, so
-    /// that the ideal circuit is reproduced bit for bit.
-    #[inline]
-    fn apply(&self, x: &Vector4<f64>, z: &Vector4<f64>, u: &Vector2<f64>) -> (Vector4<f64>, Vector4<f64>) {
-        let mut xn = Vector4::zeros();
-        let mut zn = Vector4::zeros();
-        for i in 0..NX {
-            let (mut a, mut b) = (0.0, 0.0);
-            for j in 0..NX {
-                a += self.ad[(i, j)] * x[j];
-                b += self.ia[(i, j)] * x[j];
-            }
-            xn[i] = a + (self.bd[(i, 0)] * u[0] + self.bd[(i, 1)] * u[1]);
-            zn[i] = (b + z[i]) + (self.ib[(i, 0)] * u[0] + self.ib[(i, 1)] * u[1]);
-        }
-        (xn, zn)
-    }
+    step: Transition,
+    circuit: Circuit,
 }
 
 /// A buck converter that advances exactly over steps of any length.
@@ -163,8 +135,9 @@ impl Piece {
 /// exact transition of the state and its integral, cached per (circuit, piece length). Fixed-time
 /// events come from the PWM timing (high-side turn-off at `d·T`, the dead-time edges, the period
 /// end); state events (`il = 0` of a conducting diode, `|il| = isat`) are located inside a piece
-/// on the exact solution by safeguarded Newton iteration to `1e-15·T`, the piece is split there
-/// and the topology re-chosen. One loop handles both, for any communication step.
+/// on the exact solution to `1e-15·T` (bisection over the circuit's [`Ladder`] of exact
+/// transitions, then safeguarded Newton iteration on its local Taylor polynomial), the piece is
+/// split there and the topology re-chosen. One loop handles both, for any communication step.
 ///
 /// ```
 /// use buck_model::{Converter, Mode, Params};
@@ -219,6 +192,10 @@ pub struct Converter {
     cache: Vec<Piece>,
     #[serde(skip)]
     next_slot: usize,
+    #[serde(skip)]
+    ladders: Vec<(Circuit, Ladder)>,
+    #[serde(skip)]
+    next_ladder: usize,
 }
 
 impl Converter {
@@ -247,6 +224,8 @@ impl Converter {
             time: 0.0,
             cache: Vec::with_capacity(CACHE_SLOTS),
             next_slot: 0,
+            ladders: Vec::with_capacity(LADDER_SLOTS),
+            next_ladder: 0,
         };
         conv.initialize();
         conv
@@ -500,6 +479,8 @@ impl Converter {
     fn parameters_changed(&mut self) {
         self.cache.clear();
         self.next_slot = 0;
+        self.ladders.clear();
+        self.next_ladder = 0;
         self.cl_now = self.params.cl_at(self.x[2]);
         self.vout_map = self.params.vout_map();
         if self.params.esl == 0.0 {
@@ -617,8 +598,8 @@ impl Converter {
         }
     }
 
-    /// The circuit and switch-node voltage of `topology` for a piece of length `tau`.
-    fn configure(&self, topology: Topology, tau: f64) -> (Key, f64) {
+    /// The circuit and switch-node voltage of `topology`.
+    fn configure(&self, topology: Topology) -> (Circuit, f64) {
         let p = &self.params;
         let vin = self.inputs.vin;
         let r_switch = p.rl + p.switch_resistance;
@@ -632,8 +613,7 @@ impl Converter {
         };
         let blocked = topology == Topology::Blocked;
         let l = if !blocked && self.region() != 0 { p.l * (1.0 - p.inductor_saturation) } else { p.l };
-        let key = Key { tau: tau.to_bits(), r: r.to_bits(), l: l.to_bits(), cl: self.cl_now.to_bits(), blocked };
-        (key, u_sw)
+        (Circuit { r: r.to_bits(), l: l.to_bits(), cl: self.cl_now.to_bits(), blocked }, u_sw)
     }
 
     /// Levels of `il` whose crossing ends the piece, each with the side (+1 above, −1 below)
@@ -683,40 +663,22 @@ impl Converter {
         let mut left = tau;
         for event in 0..=MAX_EVENTS {
             let topology = self.topology(gate);
-            let (key, u_sw) = self.configure(topology, left);
+            let (circuit, u_sw) = self.configure(topology);
             let u = Vector2::new(u_sw, io);
-            // Only whole intervals repeat; the rest after a state event would churn the cache.
-            let next = if event == 0 {
-                let i = self.cached(key);
-                self.cache[i].apply(&self.x, &self.z, &u)
+            // A whole gate interval goes by its own transition; the rest after a state event is
+            // reached on the ladder.
+            let end = if event == 0 {
+                self.whole(circuit, left, &u)
             } else {
-                self.piece(key).apply(&self.x, &self.z, &u)
+                let i = self.ladder(circuit);
+                self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, left)
             };
             let (levels, n) = self.thresholds(topology);
-            let crossing = if n == 0 || event == MAX_EVENTS {
-                None
-            } else {
-                let lti = self.lti(&key);
-                first_crossing(&lti, &self.x, &u, left, next.0[0], &levels[..n], ROOT_TOL * self.params.period())
-            };
-            let Some((t, level)) = crossing else {
-                self.commit(&next);
+            let crossed = if n == 0 || event == MAX_EVENTS { None } else { self.cross(circuit, &end, &u, left, &levels[..n]) };
+            let Some(t) = crossed else {
+                self.commit(&end);
                 return;
             };
-            if t > 0.0 {
-                let at = self.piece(Key { tau: t.to_bits(), ..key }).apply(&self.x, &self.z, &u);
-                self.commit(&at);
-            }
-            self.x[0] = level;
-            if level == 0.0 {
-                self.blocked = true;
-            } else {
-                // Above isat when |il| keeps growing (the sign of dil/dt is the same for both
-                // inductances, so this does not depend on the region just left).
-                let lti = self.lti(&key);
-                let dil = derivative(&lti, &self.x, &u);
-                self.sat_region = if dil * level > 0.0 { level.signum() as i8 } else { 0 };
-            }
             left -= t;
             if left <= 0.0 {
                 return;
@@ -724,34 +686,65 @@ impl Converter {
         }
     }
 
-    fn commit(&mut self, (x, z): &(Vector4<f64>, Vector4<f64>)) {
-        self.x = *x;
-        self.z = *z;
+    /// Moves to the first state event at one of `levels` on the way from the current point to
+    /// `end`, `tau` later in the same piece (inputs `u`), and crosses it: the time that took, or
+    /// `None` (and nothing moved) if there is none.
+    fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)]) -> Option<f64> {
+        let start = Point { t: 0.0, x: self.x, z: self.z };
+        let tol = ROOT_TOL * self.params.period();
+        let i = self.ladder(circuit);
+        let ladder = &self.ladders[i].1;
+        let (mut at, level) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
+        at.x[0] = level;
+        // Above isat when |il| keeps growing (the sign of dil/dt is the same for both
+        // inductances, so this does not depend on the region just left).
+        let dil = ladder.dil(&at.x, u);
+        self.commit(&at);
+        if level == 0.0 {
+            self.blocked = true;
+        } else {
+            self.sat_region = if dil * level > 0.0 { level.signum() as i8 } else { 0 };
+        }
+        Some(at.t)
     }
 
-    /// The continuous circuit of a piece.
-    fn lti(&self, key: &Key) -> Lti {
-        self.params.piece_lti(f64::from_bits(key.r), f64::from_bits(key.l), f64::from_bits(key.cl), key.blocked)
+    fn commit(&mut self, p: &Point) {
+        self.x = p.x;
+        self.z = p.z;
     }
 
-    /// Exact transition over the piece `key`.
-    fn piece(&self, key: Key) -> Piece {
-        let d = self.lti(&key).discretize(f64::from_bits(key.tau));
-        let n = d.ad.nrows();
-        let mut piece = Piece { key, ad: Mat::zeros(), bd: Inp::zeros(), ia: Mat::zeros(), ib: Inp::zeros() };
-        piece.ad.view_mut((0, 0), (n, n)).copy_from(&d.ad);
-        piece.bd.view_mut((0, 0), (n, 2)).copy_from(&d.bd);
-        piece.ia.view_mut((0, 0), (n, n)).copy_from(&d.ia);
-        piece.ib.view_mut((0, 0), (n, 2)).copy_from(&d.ib);
-        piece
+    /// The continuous circuit.
+    fn lti(&self, circuit: Circuit) -> Lti {
+        let bits = f64::from_bits;
+        self.params.piece_lti(bits(circuit.r), bits(circuit.l), bits(circuit.cl), circuit.blocked)
     }
 
-    /// Index of the cached transition for `key`, computing it on a miss.
-    fn cached(&mut self, key: Key) -> usize {
-        if let Some(i) = self.cache.iter().position(|p| p.key == key) {
+    /// The current point advanced over a whole gate interval of length `tau`.
+    ///
+    /// The transition comes from the Van Loan exponential of [`Lti::discretize`] and is cached,
+    /// so that the ideal circuit is the design's discretization bit for bit. Under
+    /// `cap_dc_bias`, `Cl` and so the circuit changes every period and nothing repeats: the
+    /// interval is reached on the circuit's [`Ladder`] (cheaper to build than the dynamic-size
+    /// exponential, and shared by the pieces of the period and their state events).
+    fn whole(&mut self, circuit: Circuit, tau: f64, u: &Vector2<f64>) -> Point {
+        if self.params.cap_dc_bias > 0.0 {
+            let i = self.ladder(circuit);
+            return self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, u, tau);
+        }
+        let i = self.cached(circuit, tau);
+        let (x, z) = self.cache[i].step.apply(&self.x, &self.z, u);
+        Point { t: tau, x, z }
+    }
+
+    /// Index of the cached transition of `circuit` over `tau`, computing it on a miss.
+    fn cached(&mut self, circuit: Circuit, tau: f64) -> usize {
+        // The length first: it tells the cached pieces of one circuit apart.
+        if let Some(i) = self.cache.iter().position(|p| p.step.h.to_bits() == tau.to_bits() && p.circuit == circuit) {
             return i;
         }
-        let piece = self.piece(key);
+        let d = self.lti(circuit).discretize(tau);
+        let step = Transition { h: tau, ad: pad(&d.ad), bd: pad(&d.bd), ia: pad(&d.ia), ib: pad(&d.ib) };
+        let piece = Piece { step, circuit };
         if self.cache.len() < CACHE_SLOTS {
             self.cache.push(piece);
             self.cache.len() - 1
@@ -762,106 +755,65 @@ impl Converter {
             i
         }
     }
-}
 
-/// `dil/dt` of the circuit `lti` at state `x` with inputs `u`.
-fn derivative(lti: &Lti, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-    let n = lti.states();
-    (0..n).map(|j| lti.a[(0, j)] * x[j]).sum::<f64>() + lti.b[(0, 0)] * u[0] + lti.b[(0, 1)] * u[1]
-}
-
-/// `il(t)` and `dil/dt(t)` on the exact solution from `x0` with held inputs `u`:
-/// `x(t) = e^{At}·x0 + Γ(t)·u` from the exponential of `[[A, B], [0, 0]]·t`.
-fn il_at(lti: &Lti, x0: &Vector4<f64>, u: &Vector2<f64>, t: f64) -> (f64, f64) {
-    let n = lti.states();
-    let mut g = DMatrix::zeros(n + 2, n + 2);
-    g.view_mut((0, 0), (n, n)).copy_from(&lti.a);
-    g.view_mut((0, n), (n, 2)).copy_from(&lti.b);
-    let e = (g * t).exp();
-    let mut x = Vector4::zeros();
-    for i in 0..n {
-        x[i] = (0..n).map(|j| e[(i, j)] * x0[j]).sum::<f64>() + e[(i, n)] * u[0] + e[(i, n + 1)] * u[1];
+    /// Index of the cached [`Ladder`] of `circuit`, building it on a miss.
+    fn ladder(&mut self, circuit: Circuit) -> usize {
+        if let Some(i) = self.ladders.iter().position(|(c, _)| *c == circuit) {
+            return i;
+        }
+        let lti = self.lti(circuit);
+        let entry = (circuit, Ladder::new(pad(&lti.a), pad(&lti.b), self.params.period()));
+        if self.ladders.len() < LADDER_SLOTS {
+            self.ladders.push(entry);
+            self.ladders.len() - 1
+        } else {
+            let i = self.next_ladder;
+            self.ladders[i] = entry;
+            self.next_ladder = (i + 1) % LADDER_SLOTS;
+            i
+        }
     }
-    (x[0], derivative(lti, &x, u))
 }
 
 /// The earliest instant in `(0, tau]` at which `il` reaches one of `levels` (each given with
-/// the side `s` it starts on, so that `s·(il − level) ≥ 0` now), with that level.
+/// the side `s` it starts on, so that `s·(il − level) ≥ 0` at `start`): the point there and
+/// the level.
 ///
-/// A crossing is bracketed by the sign of `s·(il − level)` at the piece end, or, when the
+/// A crossing is bracketed by the sign of `s·(il − level)` at the piece end `end`, or, when the
 /// current first moves towards the level and then away (an extremum inside the piece), by the
-/// value at the extremum, found by bisection on `dil/dt`. Within one piece `il` is a smooth
-/// sum of exponentials far slower than the period (at most one extremum), which is what this
-/// relies on. The root is polished by Newton iteration kept inside the bracket.
+/// value at the extremum, located on `dil/dt`. Within one piece `il` is a smooth sum of
+/// exponentials far slower than the period (at most one extremum), which is what this relies
+/// on: inside the bracket there is one crossing, located on `il`. Both are located to `tol`.
 fn first_crossing(
-    lti: &Lti,
-    x0: &Vector4<f64>,
+    ladder: &Ladder,
+    (start, end): (&Point, &Point),
     u: &Vector2<f64>,
     tau: f64,
-    il_end: f64,
     levels: &[(f64, f64)],
     tol: f64,
-) -> Option<(f64, f64)> {
-    let mut best: Option<(f64, f64)> = None;
-    let mut slopes: Option<(f64, f64)> = None;
+) -> Option<(Point, f64)> {
+    let mut best: Option<(Point, f64)> = None;
     for &(level, side) in levels {
-        let f = |t: f64| {
-            let (il, dil) = il_at(lti, x0, u, t);
-            (side * (il - level), side * dil)
-        };
-        let hi = if side * (il_end - level) <= 0.0 {
+        let crossing = Watch { order: 0, level, sign: side };
+        let hi = if ladder.value(crossing, &end.x, u) <= 0.0 {
             tau
         } else {
-            let (d0, d1) = *slopes.get_or_insert_with(|| (derivative(lti, x0, u), il_at(lti, x0, u, tau).1));
-            let (d0, d1) = (side * d0, side * d1);
-            if !(d0 < 0.0 && d1 > 0.0) {
+            let towards = Watch { order: 1, level: 0.0, sign: -side };
+            if !(ladder.value(towards, &start.x, u) > 0.0 && ladder.value(towards, &end.x, u) < 0.0) {
                 continue;
             }
-            // The extremum of il: dil/dt changes sign once inside.
-            let (mut lo, mut up) = (0.0, tau);
-            while up - lo > tol {
-                let mid = 0.5 * (lo + up);
-                if f(mid).1 < 0.0 { lo = mid } else { up = mid }
-            }
-            if f(up).0 > 0.0 {
+            let turn = ladder.descend(start, u, tau, towards, tol);
+            if ladder.value(crossing, &turn.x, u) > 0.0 {
                 continue;
             }
-            up
+            turn.t
         };
-        let t = newton(f, hi, side * (x0[0] - level), tol);
-        if best.is_none_or(|(b, _)| t < b) {
-            best = Some((t, level));
+        let at = ladder.descend(start, u, hi, crossing, tol);
+        if best.is_none_or(|(b, _)| at.t < b.t) {
+            best = Some((at, level));
         }
     }
     best
-}
-
-/// Root of `f` in `[0, hi]` with `f(0) = f0 ≥ 0 ≥ f(hi)`: Newton steps from the secant guess,
-/// replaced by bisection whenever they leave the bracket.
-fn newton(f: impl Fn(f64) -> (f64, f64), hi: f64, f0: f64, tol: f64) -> f64 {
-    let (mut lo, mut up) = (0.0, hi);
-    let f_hi = f(hi).0;
-    let mut t = if f0 - f_hi > 0.0 { hi * f0 / (f0 - f_hi) } else { hi };
-    for _ in 0..100 {
-        let (v, dv) = f(t);
-        if v > 0.0 {
-            lo = t;
-        } else {
-            up = t;
-        }
-        if v == 0.0 || up - lo <= tol {
-            return t;
-        }
-        let mut next = t - v / dv;
-        if !(next > lo && next < up) {
-            next = 0.5 * (lo + up);
-        }
-        if (next - t).abs() <= tol {
-            return next;
-        }
-        t = next;
-    }
-    t
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@
 mod converter;
 pub mod digital;
 mod error;
+mod flow;
 pub mod lti;
 mod params;
 pub mod variables;
