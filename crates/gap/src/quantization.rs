@@ -18,16 +18,18 @@ const FULL_SCALE: f64 = 16.0;
 /// Fraction of the readings that must lie on the lattice.
 const ON_LATTICE: f64 = 0.999;
 
-/// A reading lies on the lattice when within this fraction of a step of a lattice point.
-const LATTICE_TOL: f64 = 1e-6;
+/// A reading lies on the lattice when within this fraction of a step of a lattice point (far
+/// above the rounding of a CSV file's decimals, far below a continuous value's typical miss
+/// of a quarter step).
+const LATTICE_TOL: f64 = 1e-3;
 
-/// The lattice `(lsb, offset)` the readings `v` lie on, if they do: far fewer distinct values
-/// than readings, and (nearly) every reading an integer number of steps from the first.
+/// The lattice `(lsb, offset)` the readings `v` lie on, if they do: fewer distinct values than
+/// readings, and (nearly) every reading an integer number of smallest steps from the lowest.
 pub(crate) fn lattice(v: &[f64]) -> Option<(f64, f64)> {
     let mut distinct = v.to_vec();
     distinct.sort_by(f64::total_cmp);
     distinct.dedup();
-    if distinct.len() < 2 || distinct.len() * 4 > v.len() {
+    if distinct.len() < 2 || distinct.len() * 10 > v.len() * 9 {
         return None;
     }
     // Steps below the file's decimal precision are rounding, not the lattice.
@@ -39,7 +41,7 @@ pub(crate) fn lattice(v: &[f64]) -> Option<(f64, f64)> {
     let offset = distinct[0];
     let on = v.iter().filter(|x| {
         let steps = (*x - offset) / lsb;
-        (steps - steps.round()).abs() <= LATTICE_TOL.max(tiny / lsb) * steps.abs().max(1.0)
+        (steps - steps.round()).abs() <= LATTICE_TOL
     });
     (on.count() as f64 >= ON_LATTICE * v.len() as f64).then_some((lsb, offset))
 }
