@@ -33,6 +33,9 @@ const FD_STEP: f64 = 1e-4;
 /// Forward-difference step of the initial voltage [V].
 const V0_STEP: f64 = 1e-4;
 
+/// Start values of Cl tried besides the given one [F] (half a decade apart over the thesis range).
+const CL_GRID: [f64; 6] = [0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6];
+
 /// Iteration limit of Levenberg–Marquardt.
 const MAX_ITERATIONS: usize = 40;
 
@@ -123,6 +126,22 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
     logs.push(data.vout[0]);
     let clock = std::time::Instant::now();
     let estimation = data.slice(0..n_est);
+    // Cl starts from the best of its start value and a coarse grid: a start taken from a model
+    // that cannot describe the data (e.g. a linear model on DCM data) may be far off.
+    if let Some(ci) = free.iter().position(|f| *f == Free::Cl) {
+        let cost_at = |l: f64| {
+            let mut u = logs.clone();
+            u[ci] = l;
+            residuals(start, free, &u, &estimation).map_or(f64::INFINITY, |r| r.norm_squared())
+        };
+        let best = std::iter::once(logs[ci])
+            .chain(CL_GRID.iter().map(|c| c.ln()))
+            .map(|l| (cost_at(l), l))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((_, l)) = best {
+            logs[ci] = l;
+        }
+    }
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
     let mut r = residuals(start, free, &logs, &estimation).ok_or_else(not_simulable)?;
     let mut cost = r.norm_squared();

@@ -128,13 +128,11 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// is, so every other candidate is fitted on the averaged and on the PWM model, and the better
 /// held-out fit is judged against the model it extends.
 ///
-/// The circuit effects `load_esr`, `esl`, `dead_time` and `diode_drop` are fitted once, with
-/// the exact model (period maps extracted from the switched simulator, see
-/// `estimator::model::Structure::Exact`) and `[Cl, effect]` free, and judged against the PWM
-/// model when the ripple is significant, else against the nominal. The exact model is a
-/// linearization at each duty level's periodic orbit: it is exact where the period map is
-/// affine (`load_esr`, `esl`; `dead_time` and `diode_drop` only while the inductor current
-/// keeps its sign through the diode intervals, i.e. not in DCM or under large current swings).
+/// The circuit effects `diode_drop`, `dcm`, `dead_time`, `inductor_saturation`, `cap_dc_bias`,
+/// `load_esr` and `esl` are fitted on switched data only, with the plant simulator itself
+/// (`estimator::simulated`: nonlinear, exact through DCM and every state event) and
+/// `[Cl, effect]` free, judged against the simulator with Cl alone. `adc_quantization` is
+/// detected in the readings (see `quantization`).
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> (Vec<EffectFit>, Vec<NotTested>) {
     let nominal_opts = nominal_options(opts);
     let nrmse_before = held_out_nrmse(base);
@@ -166,14 +164,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
             }
         }
     }
-    // The circuit effects of the exact (simulator-extracted) model: switched by nature, so
-    // judged against the PWM model when the ripple is significant, else against the nominal.
-    let exact_base = pwm_base.unwrap_or(base);
-    for (name, free, start) in EXACT_EFFECTS {
-        if let Some(trial) = exact_trial(data, nominal, &nominal_opts, free, start) {
-            best.push((name, trial, exact_base));
-        }
-    }
+    let switched_base = pwm_base.unwrap_or(base);
     // The nonlinear effects with the plant simulator itself, on switched data only (the
     // ripple significant or in the nominal).
     let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
@@ -185,10 +176,10 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     } else {
         // Judged against the simulator with Cl alone (the same criterion window and initial
         // state treatment), and placed on the others' AIC scale through the model it extends.
-        let cl = exact_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
+        let cl = switched_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
         let start = Params { cl, ..*nominal };
         if let Ok(reference) = estimator::simulated::fit(data, &start, &[Free::Cl], n_est) {
-            let offset = n_est as f64 * (variance(exact_base).ln() - variance(&reference).ln());
+            let offset = n_est as f64 * (variance(switched_base).ln() - variance(&reference).ln());
             for (name, trial) in simulated_trials(data, &start, n_est) {
                 let mut fit = judge(name, trial, &reference).0;
                 fit.aic += offset;
@@ -196,7 +187,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
             }
         }
     }
-    if let Some(fit) = crate::quantization::candidate(data, exact_base, n_est, nrmse_before, cl_before) {
+    if let Some(fit) = crate::quantization::candidate(data, switched_base, n_est, nrmse_before, cl_before) {
         extra.push(fit);
     }
     let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
@@ -205,20 +196,17 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     (out, not_tested)
 }
 
-/// The effects fitted with the exact model: name, free parameter and its start value (the
-/// parameters are log-scaled, so the start must be positive; typical magnitudes). Their period
-/// maps are affine, so the linearization is exact.
-const EXACT_EFFECTS: [(&str, Free, f64); 2] = [("load_esr", Free::LoadEsr, 10e-3), ("esl", Free::Esl, 1e-9)];
-
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
-const SIMULATED_EFFECTS: [SimulatedEffect; 5] = [
+const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], dcm: false },
     SimulatedEffect { name: "dcm", extra: &[], dcm: true },
     SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], dcm: false },
     SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], dcm: false },
     SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], dcm: false },
+    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], dcm: false },
+    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], dcm: false },
 ];
 
 /// A nonlinear effect fitted with the plant simulator.
@@ -258,19 +246,6 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
             Some((name, Trial { cand, params, ci95, extra: extra.len(), discrete: dcm }))
         })
         .collect()
-}
-
-/// Fits Cl and the effect parameter `free` with the exact model, from `start`.
-fn exact_trial(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions, free: Free, start: f64) -> Option<Trial> {
-    let mut with_effect = *nominal;
-    if free.get(&with_effect) <= 0.0 {
-        free.set(&mut with_effect, start);
-    }
-    let cand = run(data, &with_effect, IdentifyOptions { structures: vec![Structure::Exact], free: vec![Free::Cl, free], ..base_opts.clone() })?;
-    let e = cand.fit.estimate(free.name()).copied()?;
-    let params = BTreeMap::from([(free.name().to_string(), e.value)]);
-    let ci95 = BTreeMap::from([(free.name().to_string(), [e.ci95.0, e.ci95.1])]);
-    Some(Trial { cand, params, ci95, extra: 1, discrete: false })
 }
 
 /// The candidates other than the structure: each one's fit on top of `base_opts`.
