@@ -13,7 +13,7 @@
 //! periods. The initial inductor current is the averaged DC value of the first sample's inputs;
 //! its error decays with the LC mode (≈ 11 periods per e-fold) or at the first DCM interval, so
 //! the first [`BURN_IN`] samples are left out of the criterion.
-use buck_model::variables::VarId;
+use buck_model::variables::{Type, VarId, by_name};
 use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
 
@@ -82,6 +82,14 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
 /// Residuals `y − ŷ` over the criterion samples `BURN_IN..n_est` at the unknowns
 /// `[ln θ | v0]` (`None` if the simulation fails).
 fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet) -> Option<DVector<f64>> {
+    // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
+    let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
+        Some(Type::Real { min, max, .. }) => (min..=max).contains(&l.exp()),
+        _ => true,
+    });
+    if !inside {
+        return None;
+    }
     let v0 = unknowns[free.len()];
     let sim = simulate(&with_logs(start, free, unknowns), estimation, v0).ok()?;
     Some(DVector::from_iterator(
