@@ -8,8 +8,8 @@
 //! missing); ngspice datasets need `ngspice` on PATH and the `.venv` of `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    Outcome, PLANT_EFFECTS, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case,
-    repository_root, rng, score, spice_case,
+    Outcome, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case,
+    plant_effects, repository_root, rng, score, spice_case,
 };
 
 fn arg(name: &str) -> Option<String> {
@@ -37,7 +37,7 @@ fn main() {
     let mut outcomes: Vec<Outcome> = Vec::new();
     let mut index = 0u64;
     for _ in 0..per_effect {
-        for effect in PLANT_EFFECTS {
+        for effect in plant_effects() {
             index += 1;
             let mut r = rng(seed, index);
             let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");

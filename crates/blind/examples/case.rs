@@ -6,7 +6,7 @@ use blind::{bundled_fmu, draw, plant_case, rng};
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (seed, index): (u64, u64) = (args[1].parse().unwrap(), args[2].parse().unwrap());
-    let effect = blind::PLANT_EFFECTS.iter().find(|e| **e == args[3]).expect("effect name");
+    let effect = blind::plant_effects().find(|e| *e == args[3]).expect("effect name");
     let truth = draw(effect, &mut rng(seed, index));
     println!("{truth:?}");
     let case = plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap();

@@ -57,24 +57,12 @@ pub struct Case {
     pub source: &'static str,
 }
 
-/// The effects a plant dataset may withhold: every effect of the design table, and clean data
-/// (`none`) against a switched model, and `switching_ripple` (clean switched data against the
+/// The effects a plant dataset may withhold: clean data (`none`) against a switched model, and
+/// every effect of the design table (`switching_ripple`: clean switched data against the
 /// averaged model).
-pub const PLANT_EFFECTS: [&str; 13] = [
-    "none",
-    "switching_ripple",
-    "switch_resistance",
-    "diode_drop",
-    "dead_time",
-    "dcm",
-    "load_esr",
-    "esl",
-    "delay",
-    "adc_quantization",
-    "inductor_saturation",
-    "cap_dc_bias",
-    "param_drift",
-];
+pub fn plant_effects() -> impl Iterator<Item = &'static str> {
+    std::iter::once("none").chain(gap::EFFECTS)
+}
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).
 pub const SPICE_EFFECTS: [&str; 6] = ["none", "switching_ripple", "switch_resistance", "param_drift", "diode_drop", "dead_time"];
@@ -293,9 +281,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
     let (verdict, shrink_percent, cl_in_ci95) = match result {
         Ok(dx) => {
             let best = dx.effects.iter().find(|e| e.name == dx.verdict);
-            let ci = best.map_or([f64::NAN; 2], |e| e.cl.ci95);
-            let cl_ci = if best.is_some() { ci } else { [f64::NAN; 2] };
-            let cl_in = if best.is_some() { Some(cl_ci[0] <= case.truth.cl && case.truth.cl <= cl_ci[1]) } else { None };
+            let cl_in = best.map(|e| e.cl.ci95[0] <= case.truth.cl && case.truth.cl <= e.cl.ci95[1]);
             (dx.verdict.clone(), best.map(|e| e.shrink_percent), cl_in)
         }
         Err(e) => (format!("error: {e}"), None, None),
@@ -347,7 +333,7 @@ pub fn confusion_matrix(outcomes: &[Outcome]) -> String {
             cols.push(o.verdict.clone());
         }
     }
-    let order = |name: &str| PLANT_EFFECTS.iter().position(|e| *e == name).unwrap_or(usize::MAX);
+    let order = |name: &str| plant_effects().position(|e| e == name).unwrap_or(usize::MAX);
     rows.sort_by_key(|r| order(r));
     cols.sort_by_key(|c| (order(c), c.clone()));
     let mut s = format!("| withheld \\ verdict | {} |\n|---|{}\n", cols.join(" | "), "---:|".repeat(cols.len()));

@@ -3,7 +3,7 @@
 //! first) or else from the same model in process, diagnosed without being told. The full check
 //! with more datasets and ngspice is `cargo bench -p blind`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: failing loudly is the point
-use blind::{Outcome, PLANT_EFFECTS, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case, rng, score};
+use blind::{Outcome, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case, plant_effects, rng, score};
 
 /// The seed of the test's datasets.
 const SEED: u64 = 7;
@@ -11,8 +11,7 @@ const SEED: u64 = 7;
 #[test]
 fn every_withheld_effect_is_named_blind() {
     let fmu = bundled_fmu();
-    let outcomes: Vec<Outcome> = PLANT_EFFECTS
-        .iter()
+    let outcomes: Vec<Outcome> = plant_effects()
         .enumerate()
         .map(|(i, effect)| {
             let index = i as u64 + 1;

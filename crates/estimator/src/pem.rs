@@ -418,27 +418,9 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
         _ => evaluate(model, &model.levels(&params, true), lay, &p, &weights, true, true, None),
     };
     let s2 = eval.cost / (n_obs - np) as f64;
-    let cov_all = eval
-        .jtj
-        .clone()
-        .cholesky()
-        .map(|c| c.inverse() * s2)
-        .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))?;
+    let cov_all = covariance(eval.jtj.clone(), s2)?;
     let covariance = cov_all.view((0, 0), (nf, nf)).into_owned();
-    let estimates = model
-        .free
-        .iter()
-        .enumerate()
-        .map(|(i, f)| {
-            let sd = covariance[(i, i)].max(0.0).sqrt();
-            Estimate {
-                name: f.name(),
-                value: p[i].exp(),
-                ci95: ((p[i] - 1.959_964 * sd).exp(), (p[i] + 1.959_964 * sd).exp()),
-                rel_std: sd,
-            }
-        })
-        .collect();
+    let estimates = log_estimates(&model.free, &p[..nf], &covariance);
     Ok(Fit {
         params,
         estimates,
@@ -451,6 +433,30 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
         n_params: np,
         covariance,
     })
+}
+
+/// Covariance `s²·(JᵀJ)⁻¹` of the unknowns from the information matrix `jtj`.
+pub(crate) fn covariance(jtj: DMatrix<f64>, s2: f64) -> Result<DMatrix<f64>, EstimatorError> {
+    jtj.cholesky()
+        .map(|c| c.inverse() * s2)
+        .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))
+}
+
+/// The estimates of `free` from their log values `logs` and the covariance of the logs (whose
+/// leading block belongs to them), with 95 % intervals from the log-scale normal approximation.
+pub(crate) fn log_estimates(free: &[Free], logs: &[f64], covariance: &DMatrix<f64>) -> Vec<Estimate> {
+    free.iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let sd = covariance[(i, i)].max(0.0).sqrt();
+            Estimate {
+                name: f.name(),
+                value: logs[i].exp(),
+                ci95: ((logs[i] - 1.959_964 * sd).exp(), (logs[i] + 1.959_964 * sd).exp()),
+                rel_std: sd,
+            }
+        })
+        .collect()
 }
 
 /// One Gauss–Newton step in the initial state only (exact for output error, where the

@@ -21,7 +21,7 @@ use crate::data::DataSet;
 use crate::error::EstimatorError;
 use crate::identify::{Candidate, Traces, Validation};
 use crate::model::{Free, Structure};
-use crate::pem::{Estimate, Fit};
+use crate::pem::{self, Fit};
 use crate::validate::{ResidualTests, fit_percent};
 
 /// Samples at the start left out of the criterion while the start error decays.
@@ -201,25 +201,10 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
         j = jacobian(start, free, &logs, &estimation, &r).ok_or_else(not_simulable)?;
     }
     let s2 = cost / dof;
-    let covariance = (j.transpose() * &j)
-        .cholesky()
-        .map(|c| c.inverse() * s2)
-        .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))?;
+    let covariance = pem::covariance(j.transpose() * &j, s2)?;
     let seconds = clock.elapsed().as_secs_f64();
     let params = with_logs(start, free, &logs);
-    let estimates = free
-        .iter()
-        .enumerate()
-        .map(|(i, f)| {
-            let sd = covariance[(i, i)].max(0.0).sqrt();
-            Estimate {
-                name: f.name(),
-                value: logs[i].exp(),
-                ci95: ((logs[i] - 1.959_964 * sd).exp(), (logs[i] + 1.959_964 * sd).exp()),
-                rel_std: sd,
-            }
-        })
-        .collect();
+    let estimates = pem::log_estimates(free, &logs, &covariance);
     let sim = simulate(&params, data, logs[free.len()])?;
     let measured = data.vout[n_est..].to_vec();
     let simulated = sim[n_est..].to_vec();

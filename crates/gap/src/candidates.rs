@@ -13,6 +13,7 @@ use crate::{DiagnoseOptions, Nominal, nominal_options};
 
 /// Every effect of the design table, by its contract name.
 pub const EFFECTS: [&str; 12] = [
+    "switching_ripple",
     "switch_resistance",
     "diode_drop",
     "dead_time",
@@ -23,7 +24,6 @@ pub const EFFECTS: [&str; 12] = [
     "adc_quantization",
     "inductor_saturation",
     "cap_dc_bias",
-    "switching_ripple",
     "param_drift",
 ];
 
@@ -40,6 +40,18 @@ pub struct ClMove {
     pub ci95: [f64; 2],
     /// Change against the nominal fit [%].
     pub moved_percent: f64,
+}
+
+impl ClMove {
+    /// Cl of `cand` against the nominal fit's `cl_before` (NaN where `cand` has no Cl).
+    pub(crate) fn of(cand: &Candidate, cl_before: f64) -> Self {
+        let cl = cand.fit.estimate("Cl");
+        Self {
+            estimate: cl.map_or(f64::NAN, |e| e.value),
+            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
+            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+        }
+    }
 }
 
 /// One candidate effect's fit and judgement.
@@ -301,16 +313,11 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_
     } else {
         (None, None, delta_aic < -AIC_MARGIN)
     };
-    let cl = t.cand.fit.estimate("Cl").copied();
     let fit = EffectFit {
         name,
         params: t.params,
         ci95: t.ci95,
-        cl: ClMove {
-            estimate: cl.map_or(f64::NAN, |e| e.value),
-            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
-            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
-        },
+        cl: ClMove::of(&t.cand, cl_before),
         nrmse_after,
         shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
         delta_aic,

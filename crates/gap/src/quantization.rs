@@ -61,17 +61,12 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, nrmse
     let quantized: Vec<f64> = traces.simulated.iter().map(|&x| quantize(x, grid)).collect();
     let nrmse_after = nrmse(&traces.measured, &quantized);
     let residual: Vec<f64> = traces.measured.iter().zip(&quantized).map(|(m, q)| m - q).collect();
-    let cl = against.fit.estimate("Cl").copied();
     let bits = (FULL_SCALE / grid.0).log2();
     Some(EffectFit {
         name: "adc_quantization",
         params: BTreeMap::from([("lsb".to_string(), grid.0), ("bits_at_16V_full_scale".to_string(), bits)]),
         ci95: BTreeMap::new(),
-        cl: ClMove {
-            estimate: cl.map_or(f64::NAN, |e| e.value),
-            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
-            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
-        },
+        cl: ClMove::of(against, cl_before),
         nrmse_after,
         shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
         delta_aic: 0.0,
