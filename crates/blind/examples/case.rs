@@ -1,5 +1,6 @@
 //! One dataset of the blind bench, diagnosed with every candidate printed: for looking into a
-//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT`
+//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV]` (CSV: also
+//! write the dataset there)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
 use blind::{bundled_fmu, draw, plant_case, rng};
 
@@ -10,6 +11,9 @@ fn main() {
     let truth = draw(effect, &mut rng(seed, index));
     println!("{truth:?}");
     let case = plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap();
+    if let Some(path) = args.get(4) {
+        case.data.write_csv(std::path::Path::new(path)).unwrap();
+    }
     let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };
     let dx = gap::diagnose(&case.data, &case.nominal, &opts).unwrap();
     println!("before {:.5} Cl {:.4} µF", dx.gap_before.nrmse, dx.gap_before.cl * 1e6);

@@ -104,14 +104,19 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         let cl = f.cl.map_or_else(|| "its own Cl".to_string(), |cl| format!("Cl {:.4} µF", cl * 1e6));
         println!("FMU         held-out NRMSE {:.4} as given ({}, {cl})", f.nrmse, f.path);
     }
+    println!(
+        "noise floor {:.3e} V RMS under a held-out residual of {:.3e} V RMS (floor: {})",
+        dx.location.noise_floor_rms, dx.gap_before.rms, dx.location.noise_floor_from
+    );
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
         let params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
         println!(
-            "effect      {:18} NRMSE {:.4}  closes {:6.1} %  {}  Cl {:.4} µF  {}",
+            "effect      {:18} NRMSE {:.4} ({:+6.1} %)  closes {} of the gap over the floor  {}  Cl {:.4} µF  {}",
             e.name,
             e.nrmse_after,
-            e.shrink_percent,
+            -e.shrink_percent,
+            e.closed_percent.map_or_else(|| "   –   ".to_string(), |c| format!("{c:5.1} %")),
             if e.significant { "significant" } else { "not significant" },
             e.cl.estimate * 1e6,
             params.join(", ")

@@ -7,6 +7,7 @@ use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use estimator::validate::chi2_99;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::{DiagnoseOptions, Nominal, nominal_options};
@@ -67,8 +68,14 @@ pub struct EffectFit {
     pub cl: ClMove,
     /// Held-out NRMSE of the simulation with the effect.
     pub nrmse_after: f64,
-    /// How much of the held-out gap closed [%].
+    /// Held-out RMS of the residual with the effect [V].
+    pub rms_after: f64,
+    /// How much the held-out NRMSE shrank [%] (sensor noise included: no model can remove it).
     pub shrink_percent: f64,
+    /// How much of the held-out gap above the noise floor closed [%]: the share of the residual
+    /// power over the floor's that the effect removed. `None` when the floor is unknown or the
+    /// nominal model's gap is within it.
+    pub closed_percent: Option<f64>,
     /// AIC difference against the model it extends (negative: better): the nominal averaged
     /// model, or the PWM model once `switching_ripple` is significant.
     pub delta_aic: f64,
@@ -87,13 +94,50 @@ pub struct EffectFit {
     pub residual: Vec<f64>,
 }
 
+/// What every candidate is measured against: the nominal model's held-out error and Cl, and
+/// the noise floor.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Baseline {
+    /// Held-out NRMSE of the nominal model.
+    pub nrmse: f64,
+    /// Held-out residual RMS of the nominal model [V].
+    pub rms: f64,
+    /// Cl of the nominal fit [F].
+    pub cl: f64,
+    /// Sensor-noise RMS [V], when known.
+    pub floor: Option<f64>,
+}
+
+/// Gap power below which (as a fraction of the floor's) the gap is within the floor's own
+/// uncertainty and no share of it is reported.
+const MIN_GAP_OVER_FLOOR: f64 = 0.1;
+
+impl Baseline {
+    /// Shrink of the held-out NRMSE [%].
+    pub(crate) fn shrink_percent(&self, nrmse_after: f64) -> f64 {
+        100.0 * (1.0 - nrmse_after / self.nrmse)
+    }
+
+    /// Share of the gap power above the floor that a residual RMS of `rms_after` closes [%].
+    pub(crate) fn closed_percent(&self, rms_after: f64) -> Option<f64> {
+        let floor = self.floor?;
+        let gap = self.rms.powi(2) - floor.powi(2);
+        (gap > MIN_GAP_OVER_FLOOR * floor.powi(2)).then(|| 100.0 * (self.rms.powi(2) - rms_after.powi(2)) / gap)
+    }
+}
+
+/// Root mean square of `r`.
+pub(crate) fn rms(r: &[f64]) -> f64 {
+    (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
+}
+
 /// An effect that was not fitted to this data.
 #[derive(Debug, Clone, Serialize)]
 pub struct NotTested {
     /// Contract name.
     pub name: &'static str,
     /// Why.
-    pub reason: &'static str,
+    pub reason: String,
 }
 
 
@@ -145,11 +189,9 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candid
 /// (`estimator::simulated`: nonlinear, exact through DCM and every state event) and
 /// `[Cl, effect]` free, judged against the simulator with Cl alone. `adc_quantization` is
 /// detected in the readings (see `quantization`).
-pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, n_est: usize) -> (Vec<EffectFit>, Vec<NotTested>) {
+pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, baseline: &Baseline, n_est: usize) -> (Vec<EffectFit>, Vec<NotTested>) {
     let nominal_opts = nominal_options(opts);
-    let nrmse_before = held_out_nrmse(base);
-    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
-    let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, nrmse_before, cl_before);
+    let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, baseline);
 
     // With a switched nominal the ripple is already in the model: no `switching_ripple`
     // candidate, and everything is judged against the nominal.
@@ -164,42 +206,54 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     if let Some(pwm) = pwm_base {
         bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }));
     }
-    let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
-    let mut extra: Vec<EffectFit> = Vec::new();
-    let mut not_tested: Vec<NotTested> = Vec::new();
-    for (against, opts) in &bases {
-        for (name, trial) in effect_trials(data, nominal, opts) {
-            match best.iter_mut().find(|b| b.0 == name) {
-                Some(b) if held_out_nrmse(&b.1.cand) <= held_out_nrmse(&trial.cand) => {}
-                Some(b) => *b = (name, trial, against),
-                None => best.push((name, trial, against)),
-            }
-        }
-    }
     let switched_base = pwm_base.unwrap_or(base);
     // The nonlinear effects with the plant simulator itself, on switched data only (the
-    // ripple significant or in the nominal).
+    // ripple significant or in the nominal), in parallel with the grey-box candidates.
     let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
-    if !switched {
-        not_tested.extend(SIMULATED_EFFECTS.iter().map(|e| NotTested {
-            name: e.name,
-            reason: "switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)",
-        }));
-    } else {
+    let grey_box = || {
+        let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
+        for (against, opts) in &bases {
+            for (name, trial) in effect_trials(data, nominal, opts) {
+                match best.iter_mut().find(|b| b.0 == name) {
+                    Some(b) if held_out_nrmse(&b.1.cand) <= held_out_nrmse(&trial.cand) => {}
+                    Some(b) => *b = (name, trial, against),
+                    None => best.push((name, trial, against)),
+                }
+            }
+        }
+        best
+    };
+    let simulated = || -> (Vec<EffectFit>, Vec<NotTested>) {
+        let untested = |reason: &str| SIMULATED_EFFECTS.iter().map(|e| NotTested { name: e.name, reason: reason.to_string() }).collect();
+        if !switched {
+            return (Vec::new(), untested("switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)"));
+        }
         // Judged against the simulator with Cl alone (the same criterion window and initial
         // state treatment), and placed on the others' AIC scale through the model it extends.
         let cl = switched_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
         let start = Params { cl, ..*nominal };
-        if let Ok(reference) = estimator::simulated::fit(data, &start, &[Free::Cl], n_est) {
-            let offset = n_est as f64 * (variance(switched_base).ln() - variance(&reference).ln());
-            for (name, trial) in simulated_trials(data, &start, n_est) {
-                let mut fit = judge(name, trial, &reference).0;
-                fit.aic += offset;
-                extra.push(fit);
+        let (reference, trials) = rayon::join(|| estimator::simulated::fit(data, &start, &[Free::Cl], n_est), || simulated_trials(data, &start, n_est));
+        let reference = match reference {
+            Ok(r) => r,
+            Err(e) => return (Vec::new(), untested(&format!("the switched simulator with Cl alone, which these effects are judged against, did not fit: {e}"))),
+        };
+        let offset = n_est as f64 * (variance(switched_base).ln() - variance(&reference).ln());
+        let mut fits = Vec::new();
+        let mut failed = Vec::new();
+        for (name, trial) in trials {
+            match trial {
+                Ok(trial) => {
+                    let mut fit = judge(name, trial, &reference).0;
+                    fit.aic += offset;
+                    fits.push(fit);
+                }
+                Err(e) => failed.push(NotTested { name, reason: format!("its fit failed: {e}") }),
             }
         }
-    }
-    if let Some(fit) = crate::quantization::candidate(data, switched_base, n_est, nrmse_before, cl_before) {
+        (fits, failed)
+    };
+    let (best, (mut extra, not_tested)) = rayon::join(grey_box, simulated);
+    if let Some(fit) = crate::quantization::candidate(data, switched_base, n_est, baseline) {
         extra.push(fit);
     }
     let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
@@ -232,11 +286,12 @@ struct SimulatedEffect {
 
 /// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the
 /// circuit values `start` (Cl from the model it extends).
-fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'static str, Trial)> {
+/// An effect whose fit fails is returned with the reason.
+fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'static str, Result<Trial, String>)> {
     let io = data.io.iter().sum::<f64>() / data.len() as f64;
     SIMULATED_EFFECTS
-        .iter()
-        .filter_map(|&SimulatedEffect { name, extra, dcm }| {
+        .par_iter()
+        .map(|&SimulatedEffect { name, extra, dcm }| {
             let mut p = Params { dcm, ..*start };
             let mut free = vec![Free::Cl];
             for &(f, v) in extra {
@@ -244,18 +299,20 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
                 f.set(&mut p, if v.is_nan() { io.abs() + 0.5 } else { v });
                 free.push(f);
             }
-            let cand = estimator::simulated::fit(data, &p, &free, n_est).ok()?;
-            let mut params = BTreeMap::new();
-            let mut ci95 = BTreeMap::new();
-            for &(f, _) in extra {
-                let e = cand.fit.estimate(f.name())?;
-                params.insert(f.name().to_string(), e.value);
-                ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
-            }
-            if dcm {
-                params.insert("dcm".to_string(), 1.0);
-            }
-            Some((name, Trial { cand, params, ci95, extra: extra.len(), discrete: dcm }))
+            let trial = estimator::simulated::fit(data, &p, &free, n_est).map_err(|e| e.to_string()).and_then(|cand| {
+                let mut params = BTreeMap::new();
+                let mut ci95 = BTreeMap::new();
+                for &(f, _) in extra {
+                    let e = cand.fit.estimate(f.name()).ok_or_else(|| format!("no estimate of {}", f.name()))?;
+                    params.insert(f.name().to_string(), e.value);
+                    ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+                }
+                if dcm {
+                    params.insert("dcm".to_string(), 1.0);
+                }
+                Ok(Trial { cand, params, ci95, extra: extra.len(), discrete: dcm })
+            });
+            (name, trial)
         })
         .collect()
 }
@@ -301,7 +358,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
 
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
 /// otherwise, and better on the held-out data); shrink and Cl movement against the nominal.
-fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> (EffectFit, Candidate) {
+fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseline: &Baseline) -> (EffectFit, Candidate) {
     let var = variance;
     let nrmse_after = held_out_nrmse(&t.cand);
     let nrmse_against = held_out_nrmse(against);
@@ -313,19 +370,23 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, nrmse_
     } else {
         (None, None, delta_aic < -AIC_MARGIN)
     };
+    let residual = residual(&t.cand);
+    let rms_after = rms(&residual);
     let fit = EffectFit {
         name,
         params: t.params,
         ci95: t.ci95,
-        cl: ClMove::of(&t.cand, cl_before),
+        cl: ClMove::of(&t.cand, baseline.cl),
         nrmse_after,
-        shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
+        rms_after,
+        shrink_percent: baseline.shrink_percent(nrmse_after),
+        closed_percent: baseline.closed_percent(rms_after),
         delta_aic,
         aic: n_est as f64 * var(&t.cand).ln() + 2.0 * t.extra as f64,
         lr_statistic,
         lr_limit,
         significant: passes && nrmse_after < nrmse_against,
-        residual: residual(&t.cand),
+        residual,
     };
     (fit, t.cand)
 }

@@ -10,6 +10,7 @@
 
 mod candidates;
 mod locate;
+mod noise;
 mod quantization;
 
 use buck_model::Params;
@@ -21,6 +22,7 @@ use serde::Serialize;
 pub use candidates::{EFFECTS, EffectFit, NotTested};
 
 pub use locate::{Band, Group, Where};
+pub use noise::noise_floor;
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -77,6 +79,8 @@ pub struct Traces {
 pub struct Before {
     /// Held-out NRMSE of the nominal model's simulation.
     pub nrmse: f64,
+    /// Held-out residual RMS of the nominal model's simulation [V].
+    pub rms: f64,
     /// Cl of the nominal fit [F].
     pub cl: f64,
 }
@@ -115,10 +119,15 @@ fn nominal_options(opts: &DiagnoseOptions) -> IdentifyOptions {
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
     let base = identify(data, nominal, &nominal_options(opts))?;
     let base = base.best().clone();
-    let nrmse_before = candidates::held_out_nrmse(&base);
-    let cl_before = base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value);
+    let residual = candidates::residual(&base);
+    let baseline = candidates::Baseline {
+        nrmse: candidates::held_out_nrmse(&base),
+        rms: candidates::rms(&residual),
+        cl: base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value),
+        floor: noise::noise_floor(data),
+    };
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
-    let (mut effects, not_tested) = candidates::fit_all(data, nominal, opts, &base, n_est);
+    let (mut effects, not_tested) = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
     // The significant effect with the lowest Akaike criterion: an effect on top of the
     // ripple-exact model beats the ripple alone only by explaining more, and of two nested
@@ -128,9 +137,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .filter(|e| e.significant)
         .min_by(|a, b| a.aic.total_cmp(&b.aic))
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
-    // The noise floor is what the best significant model leaves (else the nominal residual).
-    let residual = candidates::residual(&base);
-    let floor = effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual);
+    // The noise floor from the data alone; where the inputs step too often for that, what the
+    // best significant model leaves (else the nominal residual).
+    let floor = match baseline.floor {
+        Some(sigma) => locate::Floor::White(sigma),
+        None => locate::Floor::Residual(effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual)),
+    };
     let location = locate::locate(data, n_est, &residual, floor);
     let measured = base.validation.traces.measured.clone();
     let after = effects
@@ -139,7 +151,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
-        gap_before: Before { nrmse: nrmse_before, cl: cl_before },
+        gap_before: Before { nrmse: baseline.nrmse, rms: baseline.rms, cl: baseline.cl },
         location,
         effects,
         not_tested,

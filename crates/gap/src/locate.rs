@@ -1,6 +1,7 @@
 //! Where the nominal model misses: the held-out residual broken down by frequency band, by
-//! operating point and by time window, each against the noise floor (the residual that the
-//! best significant model leaves; the nominal residual when nothing is significant).
+//! operating point and by time window, each against the noise floor (white sensor noise
+//! estimated from the data alone; where that is impossible, the residual that the best
+//! significant model leaves).
 use estimator::data::DataSet;
 use serde::Serialize;
 
@@ -30,11 +31,22 @@ pub struct Group {
     pub rms_over_floor: f64,
 }
 
+/// What the gap is compared with.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Floor<'a> {
+    /// White sensor noise of this RMS [V], estimated from the data alone.
+    White(f64),
+    /// The residual a model leaves (when the data gives no model-free estimate).
+    Residual(&'a [f64]),
+}
+
 /// The breakdown of the gap.
 #[derive(Debug, Clone, Serialize)]
 pub struct Where {
     /// RMS of the noise floor [V].
     pub noise_floor_rms: f64,
+    /// How the noise floor was found.
+    pub noise_floor_from: &'static str,
     /// By frequency band (log-spaced up to the Nyquist frequency).
     pub bands: Vec<Band>,
     /// By operating point: duty level; sign and size of il, and DCM, when il is measured.
@@ -76,19 +88,29 @@ fn psd(x: &[f64]) -> Vec<f64> {
 fn group(label: String, r: &[f64], floor_rms: f64) -> Group {
     let n = r.len().max(1) as f64;
     let mean = r.iter().sum::<f64>() / n;
-    let rms = (r.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
+    let rms = crate::candidates::rms(r);
     Group { label, samples: r.len(), rms, mean, rms_over_floor: rms / floor_rms.max(1e-300) }
 }
 
 /// Breaks the nominal model's held-out residual `residual` down (samples `n_est..` of `data`).
-pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: &[f64]) -> Where {
-    let n = residual.len().min(floor.len()).min(data.len() - n_est);
-    let (residual, floor) = (&residual[..n], &floor[..n]);
-    let floor_rms = (floor.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: Floor<'_>) -> Where {
+    let n = residual.len().min(data.len() - n_est);
+    let residual = &residual[..n];
     let fs = 1.0 / data.sample_period();
-
-    let (pr, pf) = (psd(residual), psd(floor));
+    let pr = psd(residual);
     let bins = pr.len();
+    let (floor_rms, pf, noise_floor_from) = match floor {
+        Floor::White(sigma) => {
+            // White noise of variance σ² has σ²·Σw² in every bin of the Hann-windowed periodogram.
+            let m = SEGMENT.min(n);
+            let w2: f64 = (0..m).map(|i| (0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / m as f64).cos()).powi(2)).sum();
+            (sigma, vec![sigma * sigma * w2; bins], "white noise from fourth differences of vout between input steps (no model)")
+        }
+        Floor::Residual(r) => {
+            let r = &r[..n.min(r.len())];
+            (crate::candidates::rms(r), psd(r), "the residual of the best significant model (the inputs step too often for a model-free estimate)")
+        }
+    };
     let edges: Vec<usize> = (0..=BANDS).map(|b| (((bins - 1) as f64).powf(b as f64 / BANDS as f64)).round() as usize).collect();
     let bands = edges
         .windows(2)
@@ -152,7 +174,7 @@ pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: &[f6
         ),
         _ => "too few held-out samples to break the gap down".to_string(),
     };
-    Where { noise_floor_rms: floor_rms, bands, operating_points, windows, summary }
+    Where { noise_floor_rms: floor_rms, noise_floor_from, bands, operating_points, windows, summary }
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::validate::nrmse;
 
-use crate::candidates::{ClMove, EffectFit};
+use crate::candidates::{Baseline, ClMove, EffectFit, rms};
 
 /// Full scale the bit count is reported for [V] (the plant's `adc_vfs` default).
 const FULL_SCALE: f64 = 16.0;
@@ -46,29 +46,51 @@ pub(crate) fn lattice(v: &[f64]) -> Option<(f64, f64)> {
     (on.count() as f64 >= ON_LATTICE * v.len() as f64).then_some((lsb, offset))
 }
 
-/// `x` rounded to the lattice.
-fn quantize(x: f64, (lsb, offset): (f64, f64)) -> f64 {
-    offset + ((x - offset) / lsb).round() * lsb
+/// The expected reading of an ADC with lattice `(lsb, offset)` whose input is `x` plus white
+/// Gaussian noise of standard deviation `sigma`: `E[Q(x + e)]` (the plain rounding of `x` when
+/// the noise is far below a step, `x` itself when it is far above).
+fn expected_reading(x: f64, (lsb, offset): (f64, f64), sigma: f64) -> f64 {
+    let z = (x - offset) / lsb;
+    let s = sigma / lsb;
+    if s < 1e-3 {
+        return offset + z.round() * lsb;
+    }
+    let phi = |t: f64| 0.5 * libm::erfc(-t / std::f64::consts::SQRT_2);
+    let reach = (6.0 * s).ceil() + 1.0;
+    let centre = z.round();
+    let mut k = centre - reach;
+    let mut expected = 0.0;
+    while k <= centre + reach {
+        expected += k * (phi((k + 0.5 - z) / s) - phi((k - 0.5 - z) / s));
+        k += 1.0;
+    }
+    offset + expected * lsb
 }
 
 /// The candidate, when `data.vout` lies on a lattice: `against`'s held-out simulation passed
-/// through the quantizer. Significant whenever the lattice is found: a continuous measurement
-/// has as many distinct values as samples. Quantization is measurement noise (`lsb²/12`), which
-/// no model can predict, so the held-out gap it explains need not shrink.
-pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, nrmse_before: f64, cl_before: f64) -> Option<EffectFit> {
+/// through the quantizer, as the expected reading given the noise at the ADC's input (the
+/// noise floor of the readings less the quantization's `lsb²/12`). Significant whenever the
+/// lattice is found: a continuous measurement has as many distinct values as samples.
+/// Quantization is measurement noise, which no model can predict, so the held-out gap it
+/// explains need not shrink.
+pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
     let grid = lattice(&data.vout)?;
     let traces = &against.validation.traces;
-    let quantized: Vec<f64> = traces.simulated.iter().map(|&x| quantize(x, grid)).collect();
+    let sigma = baseline.floor.map_or(0.0, |f| (f * f - grid.0 * grid.0 / 12.0).max(0.0).sqrt());
+    let quantized: Vec<f64> = traces.simulated.iter().map(|&x| expected_reading(x, grid, sigma)).collect();
     let nrmse_after = nrmse(&traces.measured, &quantized);
     let residual: Vec<f64> = traces.measured.iter().zip(&quantized).map(|(m, q)| m - q).collect();
     let bits = (FULL_SCALE / grid.0).log2();
+    let rms_after = rms(&residual);
     Some(EffectFit {
         name: "adc_quantization",
-        params: BTreeMap::from([("lsb".to_string(), grid.0), ("bits_at_16V_full_scale".to_string(), bits)]),
+        params: BTreeMap::from([("lsb".to_string(), grid.0), ("bits_at_16V_full_scale".to_string(), bits), ("input_noise_rms".to_string(), sigma)]),
         ci95: BTreeMap::new(),
-        cl: ClMove::of(against, cl_before),
+        cl: ClMove::of(against, baseline.cl),
         nrmse_after,
-        shrink_percent: 100.0 * (1.0 - nrmse_after / nrmse_before),
+        rms_after,
+        shrink_percent: baseline.shrink_percent(nrmse_after),
+        closed_percent: baseline.closed_percent(rms_after),
         delta_aic: 0.0,
         // Quantization adds no dynamics: it ranks as the model it extends.
         aic: n_est as f64 * against.fit.sigma[0].powi(2).ln(),
@@ -91,5 +113,17 @@ mod tests {
         let (step, _) = lattice(&quantized).unwrap();
         assert!((step / lsb - 1.0).abs() < 1e-9, "{step}");
         assert!(lattice(&continuous).is_none());
+    }
+
+    /// The expected reading: plain rounding without noise; with noise of a few steps, the input
+    /// itself (the dither linearizes the quantizer); symmetric half-way between two levels.
+    #[test]
+    fn expected_reading_goes_from_rounding_to_the_input_as_noise_grows() {
+        let grid = (0.01, 0.0);
+        assert!((expected_reading(0.0132, grid, 0.0) - 0.01).abs() < 1e-12);
+        assert!((expected_reading(0.0132, grid, 0.02) - 0.0132).abs() < 1e-6);
+        assert!((expected_reading(0.015, grid, 0.002) - 0.015).abs() < 1e-9);
+        let slight = expected_reading(0.0132, grid, 0.002);
+        assert!(slight > 0.01 && slight < 0.0132, "{slight}");
     }
 }

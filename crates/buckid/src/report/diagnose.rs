@@ -108,6 +108,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
                 format!("{:.4} {}", e.cl.estimate * 1e6, ci(e.cl.ci95.map(|c| c * 1e6))),
                 format!("{:.4}", e.nrmse_after),
                 format!("{:.1}", e.shrink_percent),
+                e.closed_percent.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
                 format!("{:.1}", e.delta_aic),
                 match (e.lr_statistic, e.lr_limit) {
                     (Some(s), Some(l)) => format!("{s:.1} / {l:.1}"),
@@ -142,13 +143,19 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         dx.gap_before.cl * 1e6,
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {nrmse:.4}.", esc(path))),
     ));
-    page.html(&format!("<p>Where: {} (noise floor {:.3e} V RMS).</p>", esc(&w.summary), w.noise_floor_rms));
+    page.html(&format!(
+        "<p>Where: {} (noise floor {:.3e} V RMS: {}; held-out residual {:.3e} V RMS).</p>",
+        esc(&w.summary),
+        w.noise_floor_rms,
+        esc(w.noise_floor_from),
+        dx.gap_before.rms
+    ));
     page.figure("gap_bands", bands.render());
     page.figure("gap_operating_points", points.render());
     page.figure("gap_windows", windows.render());
     page.figure("heldout", overlay.render());
     page.html("<h2>Effects, best held-out error first</h2>");
-    page.html(&table(&["effect", "parameters [CI95]", "Cl [µF] [CI95]", "NRMSE after", "shrink [%]", "ΔAIC", "LR / 99 %", "significant"], &rows));
+    page.html(&table(&["effect", "parameters [CI95]", "Cl [µF] [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "significant"], &rows));
     if !not_tested.is_empty() {
         page.html(&format!("<h2>Not tested</h2><ul>{not_tested}</ul>"));
     }
