@@ -1,8 +1,8 @@
 //! One dataset of the blind bench, diagnosed with every candidate printed: for looking into a
-//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV]` (CSV: also
-//! write the dataset there)
+//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV] [--spice]`
+//! (CSV: also write the dataset there; `--spice`: the ngspice dataset of that index)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
-use blind::{bundled_fmu, draw, plant_case, rng};
+use blind::{Spice, bundled_fmu, draw, plant_case, repository_root, rng, spice_case};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -10,8 +10,12 @@ fn main() {
     let effect = blind::plant_effects().find(|e| *e == args[3]).expect("effect name");
     let truth = draw(effect, &mut rng(seed, index));
     println!("{truth:?}");
-    let case = plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap();
-    if let Some(path) = args.get(4) {
+    let case = if args.iter().any(|a| a == "--spice") {
+        spice_case(truth, seed ^ index, &Spice::find(&repository_root()).expect("ngspice and .venv (scripts/setup)")).unwrap()
+    } else {
+        plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap()
+    };
+    if let Some(path) = args.get(4).filter(|a| *a != "--spice") {
         case.data.write_csv(std::path::Path::new(path)).unwrap();
     }
     let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };

@@ -169,6 +169,9 @@ pub struct Converter {
     phase: f64,
     /// Duty in force during the current period (latched at its start).
     latched_duty: f64,
+    /// The PWM signal was high at the end of the previous period (duty 1): no rising edge, so
+    /// no dead time, at this period's start; a duty-0 period then starts with a falling edge.
+    pwm_high_before: bool,
     /// Load capacitance in force during the current period (`cap_dc_bias`) [F].
     cl_now: f64,
     /// The inductor current stopped at zero with both switches off (DCM) until the next turn-on.
@@ -212,6 +215,7 @@ impl Converter {
             io_held: 0.0,
             phase: 0.0,
             latched_duty: 0.0,
+            pwm_high_before: false,
             cl_now: params.cl,
             vout_map: params.vout_map(),
             blocked: false,
@@ -323,6 +327,7 @@ impl Converter {
         };
         let x0 = if self.start_at_steady_state { self.params.steady_state(d0, vin, io) } else { [0.0; 3] };
         self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2], ic: 0.0 });
+        self.pwm_high_before = d0 >= 1.0;
         self.period_index = 0;
         self.digital.restart(d0, self.vout(), x0[0]);
     }
@@ -522,6 +527,7 @@ impl Converter {
                 self.io_integral = 0.0;
                 self.phase = 0.0;
                 self.at_period_start = true;
+                self.pwm_high_before = self.latched_duty >= 1.0;
                 self.period_index += 1;
                 self.digital.sample(self.vout(), self.x[0], self.period_index);
             }
@@ -537,30 +543,35 @@ impl Converter {
     }
 
     /// The gate in force at the current phase and the end of its interval (the next fixed
-    /// event). Synchronous: high `[0, dT)`, dead `[dT, dT + td)`, low `[dT + td, T − td)`,
-    /// dead `[T − td, T)`; asynchronous: high `[0, dT)`, off `[dT, T)`.
+    /// event). Synchronous, each turn-on delayed by the dead time as gate drivers do: dead
+    /// `[0, td)`, high `[td, dT)`, dead `[dT, dT + td)`, low `[dT + td, T)` (no leading dead
+    /// interval after a duty-1 period, whose PWM signal never fell); asynchronous: high
+    /// `[0, dT)`, off `[dT, T)`.
     fn gate(&self, period: f64) -> (Gate, f64) {
         if self.mode == Mode::Averaged {
             return (Gate::Averaged, period);
         }
         let on = self.latched_duty * period;
+        if self.params.asynchronous() {
+            return if self.phase < on { (Gate::High, on) } else { (Gate::Off, period) };
+        }
+        // Each turn-on comes `td` after the PWM edge that calls for it (the high side's after the
+        // rising edge at the period start, the low side's after the falling edge at dT).
+        let td = self.params.dead_time;
+        let rising = on > 0.0 && !self.pwm_high_before;
+        let high_start = if rising { td.min(on) } else { 0.0 };
+        if self.phase < high_start {
+            return (Gate::Off, high_start);
+        }
         if self.phase < on {
             return (Gate::High, on);
         }
-        if self.params.asynchronous() {
-            return (Gate::Off, period);
+        if on >= period {
+            return (Gate::High, period);
         }
-        let td = self.params.dead_time;
-        let (low_start, low_end) = (on + td, period - td);
-        if low_start >= low_end {
-            (Gate::Off, period)
-        } else if self.phase < low_start {
-            (Gate::Off, low_start)
-        } else if self.phase < low_end {
-            (Gate::Low, low_end)
-        } else {
-            (Gate::Off, period)
-        }
+        let falling = on > 0.0 || self.pwm_high_before;
+        let low_start = if falling { (on + td).min(period) } else { 0.0 };
+        if self.phase < low_start { (Gate::Off, low_start) } else { (Gate::Low, period) }
     }
 
     /// What conducts under `gate` in the current state.

@@ -78,10 +78,11 @@ fn dcm_output_voltage_with_a_current_load() {
 }
 
 /// Dead time in a synchronous buck, with `il` of one sign all period (|io| = 3 A above the half
-/// ripple). The switch node is `U` on `[0, dT)`, then for `2·td` per period the body diode's
-/// `−V_bd` (il > 0) or `U + V_bd` (il < 0) instead of 0, so exactly
-/// `avg(vout) = d·U − 2·td·fs·V_bd − RL·io` (il > 0) and `d·U + 2·td·fs·(U + V_bd) − RL·io`
-/// (il < 0), V_bd = 0.7 V; tolerance 1e-7 (settling).
+/// ripple). Each turn-on comes `td` after its PWM edge; during the two dead intervals the body
+/// diode holds the switch node at `−V_bd` (il > 0) or `U + V_bd` (il < 0). So the duty loses
+/// `td·fs` when il > 0 and gains it when il < 0, exactly
+/// `avg(vout) = (d − td·fs)·U − 2·td·fs·V_bd − RL·io` (il > 0) and
+/// `(d + td·fs)·U + 2·td·fs·V_bd − RL·io` (il < 0), V_bd = 0.7 V; tolerance 1e-7 (settling).
 #[test]
 fn dead_time_duty_loss_and_gain() {
     let (d, td) = (0.45, 30e-9);
@@ -92,13 +93,34 @@ fn dead_time_duty_loss_and_gain() {
         settle(&mut conv, 6000);
         let y = conv.outputs();
         let expected = if io > 0.0 {
-            d * 12.0 - 2.0 * td * p.fs * vbd - 0.1 * io
+            (d - td * p.fs) * 12.0 - 2.0 * td * p.fs * vbd - 0.1 * io
         } else {
-            d * 12.0 + 2.0 * td * p.fs * (12.0 + vbd) - 0.1 * io
+            (d + td * p.fs) * 12.0 + 2.0 * td * p.fs * vbd - 0.1 * io
         };
         assert_relative_eq!(y.vout_avg, expected, epsilon = 1e-7);
         assert_relative_eq!(y.il_avg, io, epsilon = 1e-7);
     }
+}
+
+/// A duty of 1 never lets the PWM signal fall, so no dead interval is inserted: the switch node
+/// stays at `U` and `avg(vout) = U − RL·io` exactly, dead time or not. One period at duty 0
+/// after it starts with a falling edge, so the low side turns on `td` late.
+#[test]
+fn dead_time_needs_a_pwm_edge() {
+    let p = Params { dead_time: 50e-9, ..Params::default() };
+    let mut conv = converter(p, Mode::Switched, 1.0, 1.0);
+    settle(&mut conv, 3000);
+    assert_relative_eq!(conv.outputs().vout_avg, 12.0 - 0.1 * 1.0, epsilon = 1e-7);
+    let mut ideal = converter(Params::default(), Mode::Switched, 1.0, 1.0);
+    settle(&mut ideal, 3000);
+    for c in [&mut conv, &mut ideal] {
+        c.set(VarId::Duty, 0.0).unwrap();
+        c.step(100e-9).unwrap();
+    }
+    // il > 0: the body diode holds the node at −V_bd for td instead of 0, so 100 ns into the
+    // period il is lower by td·V_bd/L (the difference decays with L/(RL + Rc) = 16.5 µs).
+    let lower = 50e-9 * p.body_diode_drop() / p.l;
+    assert_relative_eq!(ideal.outputs().il - conv.outputs().il, lower, max_relative = 0.02);
 }
 
 /// The ideal switched circuit stepped by hand with [`Params::full_lti`] (the 3-state model of

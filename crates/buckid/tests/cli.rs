@@ -2,8 +2,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
-use std::time::SystemTime;
 
 use buck_model::{Mode, Params};
 use estimator::experiment::{Experiment, ModelPlant, run};
@@ -30,47 +28,16 @@ fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
-fn root() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    root.canonicalize().unwrap_or(root)
-}
+use fmu_fixture::root;
 
 /// A committed ngspice data set (`scripts/spice/spice_fixtures.py`).
 fn spice_fixture(name: &str) -> PathBuf {
     root().join("tests/fixtures/spice").join(name)
 }
 
-/// Newest modification time of the files below `dir` (recursively).
-fn newest(dir: &Path) -> Option<SystemTime> {
-    let mut latest = None;
-    for entry in std::fs::read_dir(dir).ok()?.flatten() {
-        let path = entry.path();
-        let t = if path.is_dir() { newest(&path) } else { entry.metadata().ok()?.modified().ok() };
-        latest = latest.max(t);
-    }
-    latest
-}
-
-/// The project's packaged FMU, (re)built with `cargo xtask fmu` once per run when it is missing
-/// or older than its sources (as in the importer's tests: `cargo test` runs before packaging).
+/// The project's packaged FMU, (re)built when missing or stale.
 fn buck_fmu() -> &'static Path {
-    static FMU: OnceLock<PathBuf> = OnceLock::new();
-    FMU.get_or_init(|| {
-        let root = root();
-        let fmu = root.join("fmu/BuckConverter.fmu");
-        let built = std::fs::metadata(&fmu).and_then(|m| m.modified()).ok();
-        let sources = ["crates/buck-fmu", "crates/buck-model", "crates/fmi2-schema", "crates/fmi2-sys"]
-            .iter()
-            .filter_map(|d| newest(&root.join(d)))
-            .max();
-        if built.is_none() || built < sources {
-            eprintln!("building {} with `cargo xtask fmu` (missing or stale)", fmu.display());
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let status = Command::new(cargo).current_dir(&root).args(["xtask", "fmu"]).status().expect("run cargo xtask fmu");
-            assert!(status.success() && fmu.is_file(), "`cargo xtask fmu` failed ({status})");
-        }
-        fmu
-    })
+    fmu_fixture::buck_fmu().unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn assert_clean_failure(o: &Output, needle: &str) {

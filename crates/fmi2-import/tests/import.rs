@@ -7,11 +7,10 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::{Arc, Mutex, OnceLock};
-use std::time::SystemTime;
+use std::sync::{Arc, Mutex};
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
+use fmu_fixture::root;
 use fmi2_import::{Fmu, ImportError, Instance, InstantiateOptions, Status, VarKind};
 
 /// Switching period of the thesis converter [s].
@@ -20,53 +19,9 @@ const T: f64 = 1.0 / 330e3;
 /// constants 2L/(RL+Rc) = 33 µs, so the transient is far below this).
 const TOL: f64 = 1e-6;
 
-fn root() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    root.canonicalize().unwrap_or(root)
-}
-
-/// Newest modification time of the files below `dir` (recursively).
-fn newest(dir: &Path) -> Option<SystemTime> {
-    let mut latest = None;
-    for entry in std::fs::read_dir(dir).ok()?.flatten() {
-        let path = entry.path();
-        let t = if path.is_dir() { newest(&path) } else { entry.metadata().ok()?.modified().ok() };
-        latest = latest.max(t);
-    }
-    latest
-}
-
-fn build_fmu() -> Result<PathBuf> {
-    let root = root();
-    let fmu = root.join("fmu/BuckConverter.fmu");
-    let built = std::fs::metadata(&fmu).and_then(|m| m.modified()).ok();
-    let sources = ["crates/buck-fmu", "crates/buck-model", "crates/fmi2-schema", "crates/fmi2-sys"]
-        .iter()
-        .filter_map(|d| newest(&root.join(d)))
-        .max();
-    if built.is_some() && built >= sources {
-        return Ok(fmu);
-    }
-    eprintln!("building {} with `cargo xtask fmu` (missing or stale)", fmu.display());
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(&root)
-        .args(["xtask", "fmu"])
-        .status()
-        .context("running `cargo xtask fmu`")?;
-    if !status.success() || !fmu.is_file() {
-        bail!("`cargo xtask fmu` failed ({status}); build fmu/BuckConverter.fmu by hand to run these tests");
-    }
-    Ok(fmu)
-}
-
-/// The packaged FMU, built once per test run.
+/// The packaged FMU, (re)built when missing or stale.
 fn buck_fmu() -> &'static Path {
-    static FMU: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    match FMU.get_or_init(|| build_fmu().map_err(|e| format!("{e:#}"))) {
-        Ok(path) => path,
-        Err(e) => panic!("{e}"),
-    }
+    fmu_fixture::buck_fmu().unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn vr(fmu: &Fmu, name: &str) -> u32 {

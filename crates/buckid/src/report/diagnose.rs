@@ -119,7 +119,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
             ]
         })
         .collect();
-    let not_tested: String = dx.not_tested.iter().map(|n| format!("<li><code>{}</code>: {}</li>", n.name, esc(n.reason))).collect();
+    let not_tested: String = dx.not_tested.iter().map(|n| format!("<li><code>{}</code>: {}</li>", n.name, esc(&n.reason))).collect();
     let p = ctx.nominal;
 
     let mut page = Page::new("buckid diagnose", "Sim-to-real gap diagnosis");
