@@ -488,10 +488,25 @@ def _run_ngspice(netlist, workdir, n, T):
     return vec
 
 
+def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0):
+    """The output capacitors: C with its ESR Rc (and ESL) to node vc, Cl (with its ESR) at out."""
+    lines = []
+    if esl > 0:
+        lines += [f"Rc1   out nrc  {_num(Rc)}", f"Lc    nrc vc   {_num(esl)} IC=0"]
+    else:
+        lines.append(f"Rc1   out vc   {_num(Rc)}")
+    lines.append(f"C1    vc  0    {_num(C)}  IC={_num(vc0)}")
+    if load_esr > 0:
+        lines += [f"Rcl   out ncl  {_num(load_esr)}", f"Cl1   ncl 0    {_num(Cl)} IC={_num(vo0)}"]
+    else:
+        lines.append(f"Cl1   out 0    {_num(Cl)} IC={_num(vo0)}")
+    return "\n".join(lines)
+
+
 def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=12.0,
              io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12, circuit="ideal",
              dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
-             diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None):
+             diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0):
     """Simulate a buck converter in ngspice for len(duty) periods.
 
     duty: per-period duty d_k in [0, 1].  circuit: "ideal" (ideal switch
@@ -507,6 +522,9 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     REAL_SOLVER_OPTIONS).  edge: ideal switch edge
     width (keep it well above 5e-5*max_step, ngspice's minimum breakpoint
     spacing).
+
+    load_esr: series resistance of Cl; esl: series inductance of the C branch
+    (any circuit; 0 leaves the element out).
 
     Real circuits only: dead_time (sync: both gates off before each turn-on),
     rds_on (MOSFET on-resistance at Vgs = v_drive, see mosfet_params),
@@ -528,8 +546,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         raise ValueError("duty must be a non-empty sequence of values in [0, 1]")
     if warmup < 0:
         raise ValueError("warmup must be >= 0")
-    if min(L, C, Rc, Cl, fs, edge) <= 0 or RL < 0:
-        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL >= 0")
+    if min(L, C, Rc, Cl, fs, edge) <= 0 or min(RL, load_esr, esl) < 0:
+        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL, load_esr, esl >= 0")
     n_out = len(duty)
     if warmup:
         duty = np.concatenate((np.full(warmup, duty[0]), duty))
@@ -554,8 +572,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
 
     with open(TEMPLATES[circuit]) as f:
         template = string.Template(f.read())
-    common = dict(L=_num(L), RL=_num(RL), C=_num(C), Rc=_num(Rc), Cl=_num(Cl), io=_num(io),
-                  il0=_num(il0), vc0=_num(vc0), vo0=_num(vo0),
+    common = dict(L=_num(L), RL=_num(RL), io=_num(io),
+                  output_network=_output_network(C, Rc, Cl, load_esr, esl, vc0, vo0), il0=_num(il0),
                   max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw")
     if not real:
         netlist = template.substitute(
@@ -673,6 +691,8 @@ def main(argv=None):
     p.add_argument("--Rc", type=float, default=0.1)
     p.add_argument("--fs", type=float, default=330e3)
     p.add_argument("--U", type=float, default=12.0)
+    p.add_argument("--load-esr", type=float, default=0.0, help="series resistance of Cl [ohm]")
+    p.add_argument("--esl", type=float, default=0.0, help="series inductance of the C branch [H]")
     p.add_argument("--dead-time", type=float, default=30e-9, help="sync only [s]")
     p.add_argument("--rds-on", type=float, default=10e-3, help="MOSFET on-resistance [ohm]")
     p.add_argument("--gate-rise", type=float, default=5e-9, help="gate ramp width [s]")
@@ -691,7 +711,7 @@ def main(argv=None):
     real = dict(dead_time=a.dead_time, rds_on=a.rds_on, gate_rise=a.gate_rise)
     t0 = _time.perf_counter()
     r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit,
-                 warmup=a.warmup, **real, **params)
+                 warmup=a.warmup, load_esr=a.load_esr, esl=a.esl, **real, **params)
     if a.time:
         print(f"wall time (ngspice + parsing): {_time.perf_counter() - t0:.3f} s "
               f"for {len(duty)} + {a.warmup} warm-up periods ({a.circuit})", file=sys.stderr)

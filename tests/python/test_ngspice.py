@@ -38,6 +38,21 @@ def test_fmu_matches_ngspice_over_3001_prbs_periods(fmu_dir, model_description, 
     assert_fmu_matches(fmu_dir, model_description, f"vs-ngspice-{cl}", duty, cl, io, spice)
 
 
+@needs_ngspice
+@pytest.mark.parametrize("effect", [{"load_esr": 0.02}, {"esl": 1.5e-9}, {"load_esr": 0.01, "esl": 1e-9}])
+def test_fmu_output_network_effects_match_ngspice(fmu_dir, model_description, effect):
+    # load_esr (a resistor in series with Cl) and esl (an inductor in series with C and Rc) in
+    # the netlist against the same parameters of the FMU; 600 PRBS periods at Cl = 4.7 µF, where
+    # Cl shares the switching ripple with C and both elements shape the response.
+    io, cl = 1.0, 4.7e-6
+    duty = buck_spice.prbs_duty(600, bit_periods=8, low=0.4, high=0.6, seed=3)
+    spice = buck_spice.simulate(duty, Cl=cl, io=io, **effect)
+    plain = buck_spice.simulate(duty, Cl=cl, io=io)
+    assert_fmu_matches(fmu_dir, model_description, f"vs-ngspice-{sorted(effect)}", duty, cl, io, spice, effect)
+    # Not vacuous: the element moves the period-start vout by more than the tolerance.
+    assert np.abs(spice["vout_start"] - plain["vout_start"]).max() > 1.5e-3
+
+
 def test_fmu_matches_the_ngspice_fixture(fmu_dir, model_description):
     # The fixture starts at the averaged DC point of its first duty (no warm-up), like the FMU.
     f = spice_fixtures.load("ideal")
@@ -49,10 +64,11 @@ def test_fmu_matches_the_ngspice_fixture(fmu_dir, model_description):
                        f.num("Cl"), f.num("io"), spice)
 
 
-def assert_fmu_matches(fmu_dir, model_description, name, duty, cl, io, spice):
-    """Drives the FMU in switched mode with `duty` and compares it with the ngspice run."""
-    with open_slave(fmu_dir, model_description, name,
-                    start={"mode": SWITCHED, "Cl": cl, "io": io, "duty": float(duty[0])}) as fmu:
+def assert_fmu_matches(fmu_dir, model_description, name, duty, cl, io, spice, effects=None):
+    """Drives the FMU in switched mode (with the parameters `effects`) with `duty` and compares
+    it with the ngspice run."""
+    start = {"mode": SWITCHED, "Cl": cl, "io": io, "duty": float(duty[0]), **(effects or {})}
+    with open_slave(fmu_dir, model_description, name, start=start) as fmu:
         rows = drive(fmu, model_description, duty)  # period ends: vout, il, vc, vout_avg, il_avg
     vout_avg_err = np.abs(rows[:, 3] - spice["vout_avg"]).max()
     il_avg_err = np.abs(rows[:, 4] - spice["il_avg"]).max()

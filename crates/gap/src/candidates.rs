@@ -32,6 +32,15 @@ pub const EFFECTS: [&str; 12] = [
 /// (Burnham & Anderson: ΔAIC > 10 leaves essentially no support for the worse model).
 const AIC_MARGIN: f64 = 10.0;
 
+/// Widest ratio of a CI95's bounds for which a parameter counts as identified.
+pub const IDENTIFIABLE_SPAN: f64 = 10.0;
+
+/// Whether every interval of `ci95` is positive, finite and narrower than a factor of
+/// [`IDENTIFIABLE_SPAN`].
+fn identified(ci95: &BTreeMap<String, [f64; 2]>) -> bool {
+    ci95.values().all(|&[lo, hi]| lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo)
+}
+
 /// How Cl's estimate moved once the effect was added.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClMove {
@@ -86,8 +95,12 @@ pub struct EffectFit {
     pub lr_statistic: Option<f64>,
     /// Its 99 % critical value.
     pub lr_limit: Option<f64>,
-    /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change) and
-    /// better on the held-out data.
+    /// Every fitted parameter is pinned down by the data: its CI95 is positive and spans less
+    /// than a factor of [`IDENTIFIABLE_SPAN`]. An effect that is not (e.g. a saturation current
+    /// below every inductor current, which leaves a plain smaller L) cannot be claimed.
+    pub identifiable: bool,
+    /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change),
+    /// identifiable and better on the held-out data.
     pub significant: bool,
     /// Held-out simulation residual (for the noise floor).
     #[serde(skip)]
@@ -372,6 +385,7 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
     };
     let residual = residual(&t.cand);
     let rms_after = rms(&residual);
+    let identifiable = identified(&t.ci95);
     let fit = EffectFit {
         name,
         params: t.params,
@@ -385,7 +399,8 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
         aic: n_est as f64 * var(&t.cand).ln() + 2.0 * t.extra as f64,
         lr_statistic,
         lr_limit,
-        significant: passes && nrmse_after < nrmse_against,
+        identifiable,
+        significant: passes && identifiable && nrmse_after < nrmse_against,
         residual,
     };
     (fit, t.cand)

@@ -96,6 +96,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         aic: n_est as f64 * against.fit.sigma[0].powi(2).ln(),
         lr_statistic: None,
         lr_limit: None,
+        identifiable: true,
         significant: true,
         residual,
     })

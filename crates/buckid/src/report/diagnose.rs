@@ -115,7 +115,12 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
                     (Some(s), None) => format!("{s:.1}"),
                     _ => "–".to_string(),
                 },
-                if e.significant { "yes" } else { "no" }.to_string(),
+                match (e.significant, e.identifiable) {
+                    (true, _) => "yes",
+                    (false, true) => "no",
+                    (false, false) => "no (not identifiable)",
+                }
+                .to_string(),
             ]
         })
         .collect();
