@@ -77,6 +77,9 @@ pub struct Traces {
 /// The nominal model's fit, the gap before any effect is added.
 #[derive(Debug, Clone, Serialize)]
 pub struct Before {
+    /// The nominal model's structure (`averaged`, `pwm`, or `simulated` where the PWM model
+    /// could not be fitted).
+    pub model: &'static str,
     /// Held-out NRMSE of the nominal model's simulation.
     pub nrmse: f64,
     /// Held-out residual RMS of the nominal model's simulation [V].
@@ -116,8 +119,17 @@ fn nominal_options(opts: &DiagnoseOptions) -> IdentifyOptions {
 }
 
 /// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
+///
+/// A switched nominal is the sampled-data PWM model, linear in the state; where that cannot be
+/// fitted (e.g. deep DCM, far from any linear model) the plant simulator itself with Cl free
+/// stands in for it.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
-    let base = identify(data, nominal, &nominal_options(opts))?;
+    let base = match identify(data, nominal, &nominal_options(opts)) {
+        Err(_) if opts.nominal == Nominal::Switched => {
+            identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?
+        }
+        fit => fit?,
+    };
     let base = base.best().clone();
     let residual = candidates::residual(&base);
     let baseline = candidates::Baseline {
@@ -151,7 +163,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
-        gap_before: Before { nrmse: baseline.nrmse, rms: baseline.rms, cl: baseline.cl },
+        gap_before: Before { model: base.structure.name(), nrmse: baseline.nrmse, rms: baseline.rms, cl: baseline.cl },
         location,
         effects,
         not_tested,
