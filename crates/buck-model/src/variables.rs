@@ -210,7 +210,7 @@ pub const VARIABLES: &[Variable] = &[
         ty: Type::Boolean { start: false },
         description: "Asynchronous buck (diode low side, also with diode_drop = 0): il stops at 0 in discontinuous conduction (switched mode only)",
     },
-    real(VarId::DeadTime, "dead_time", Parameter, "s", (0.0, 1e-5), Some(0.0), "Both switches off after the high-side turn-off and before its turn-on; body diodes conduct (switched mode only)"),
+    real(VarId::DeadTime, "dead_time", Parameter, "s", (0.0, 1e-5), Some(0.0), "Each turn-on delayed after its PWM edge; body diodes conduct meanwhile (switched mode only)"),
     real(VarId::LoadEsr, "load_esr", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Series resistance of Cl; vout is then the output node voltage (both modes)"),
     real(VarId::Esl, "esl", Parameter, "H", (0.0, 1e-6), Some(0.0), "Series inductance of the C branch (both modes)"),
     real(VarId::InductorSaturation, "inductor_saturation", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of L lost for |il| > isat (both modes)"),
