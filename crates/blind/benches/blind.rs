@@ -21,6 +21,17 @@ fn percent(a: usize, b: usize) -> String {
     if b == 0 { "–".into() } else { format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64) }
 }
 
+/// The diagnosis's own noise floor against the true measurement noise [%].
+fn floor_error_percent(o: &Outcome) -> Option<f64> {
+    o.noise_floor.map(|f| 100.0 * (f / o.truth.measurement_noise() - 1.0))
+}
+
+/// One line per dataset on stderr.
+fn progress(index: u64, o: &Outcome) {
+    let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
+    eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, {floor}", index, o.source, o.truth.effect, o.verdict, o.seconds);
+}
+
 fn main() {
     let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
@@ -42,7 +53,7 @@ fn main() {
             let mut r = rng(seed, index);
             let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");
             let o = diagnose_case(&case);
-            eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, floor {:+.0} %", index, o.source, effect, o.verdict, o.seconds, 100.0 * (o.noise_floor.unwrap_or(f64::NAN) / o.truth.measurement_noise() - 1.0));
+            progress(index, &o);
             outcomes.push(o);
         }
     }
@@ -53,7 +64,7 @@ fn main() {
                 let mut r = rng(seed, index);
                 let case = spice_case(draw(effect, &mut r), seed ^ index, spice).expect("ngspice dataset");
                 let o = diagnose_case(&case);
-                eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, floor {:+.0} %", index, o.source, effect, o.verdict, o.seconds, 100.0 * (o.noise_floor.unwrap_or(f64::NAN) / o.truth.measurement_noise() - 1.0));
+                progress(index, &o);
                 outcomes.push(o);
             }
         }
@@ -88,7 +99,7 @@ fn main() {
     if !shrink.is_empty() {
         println!("| (held-out NRMSE shrink, sensor noise included, of the named) | median {:.0} %, min {:.0} % |", shrink[shrink.len() / 2], shrink[0]);
     }
-    let mut floor: Vec<f64> = outcomes.iter().filter_map(|o| o.noise_floor.map(|f| 100.0 * (f / o.truth.measurement_noise() - 1.0))).collect();
+    let mut floor: Vec<f64> = outcomes.iter().filter_map(floor_error_percent).collect();
     floor.sort_by(f64::total_cmp);
     if !floor.is_empty() {
         println!(

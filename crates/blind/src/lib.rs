@@ -45,10 +45,12 @@ pub struct Truth {
 
 impl Truth {
     /// RMS of the measurement noise on the readings [V]: the sensor noise, plus the
-    /// quantization's `lsb²/12` (Sheppard) for `adc_quantization` at the plant's 16 V full scale.
+    /// quantization's `lsb²/12` (Sheppard) for `adc_quantization` at the plant's default full
+    /// scale (the generator leaves `adc_vfs` alone).
     pub fn measurement_noise(&self) -> f64 {
         let bits = self.settings.iter().find(|(k, _)| *k == "adc_bits").map(|(_, v)| *v);
-        let quantization = bits.map_or(0.0, |b| (16.0 / b.exp2()).powi(2) / 12.0);
+        let full_scale = buck_model::digital::Digital::default().adc_vfs;
+        let quantization = bits.map_or(0.0, |b| (full_scale / b.exp2()).powi(2) / 12.0);
         (NOISE_VOUT.powi(2) + quantization).sqrt()
     }
 }
@@ -269,10 +271,6 @@ pub fn rng(seed: u64, index: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ index)
 }
 
-/// Gap power over the noise's, as a fraction of it, below which a dataset has no gap to close
-/// (the held-out residual power of 1000 samples scatters by ±4.5 %).
-pub const MIN_GAP: f64 = 0.1;
-
 /// The diagnosis of one case, scored against its truth.
 #[derive(Debug, Clone)]
 pub struct Outcome {
@@ -286,7 +284,7 @@ pub struct Outcome {
     pub shrink_percent: Option<f64>,
     /// Share of the held-out gap above the true measurement noise
     /// ([`Truth::measurement_noise`]) that the verdict's effect closed [%]; `None` when the
-    /// nominal model's gap is not above that noise (by [`MIN_GAP`] of its power).
+    /// nominal model's gap is not above that noise ([`gap::closed_percent`]).
     pub closed_percent: Option<f64>,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
@@ -315,11 +313,10 @@ pub fn diagnose_case(case: &Case) -> Outcome {
     match result {
         Ok(dx) => {
             let best = dx.effects.iter().find(|e| e.name == dx.verdict);
-            let (before, floor) = (dx.gap_before.rms.powi(2), case.truth.measurement_noise().powi(2));
             outcome.verdict.clone_from(&dx.verdict);
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
-            outcome.closed_percent = best.filter(|_| before > (1.0 + MIN_GAP) * floor).map(|e| 100.0 * (before - e.rms_after.powi(2)) / (before - floor));
-            outcome.noise_floor = (dx.location.noise_floor_from.starts_with("white")).then_some(dx.location.noise_floor_rms);
+            outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
+            outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
             outcome.cl_in_ci95 = best.map(|e| e.cl.ci95[0] <= case.truth.cl && case.truth.cl <= e.cl.ci95[1]);
         }
         Err(e) => outcome.verdict = format!("error: {e}"),

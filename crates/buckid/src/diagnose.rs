@@ -106,7 +106,9 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     println!(
         "noise floor {:.3e} V RMS under a held-out residual of {:.3e} V RMS (floor: {})",
-        dx.location.noise_floor_rms, dx.gap_before.rms, dx.location.noise_floor_from
+        dx.location.noise_floor_rms,
+        dx.gap_before.rms,
+        dx.location.noise_floor_from.describe()
     );
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {

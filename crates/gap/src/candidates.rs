@@ -125,17 +125,23 @@ pub(crate) struct Baseline {
 /// uncertainty and no share of it is reported.
 const MIN_GAP_OVER_FLOOR: f64 = 0.1;
 
+/// Share of the gap above a noise floor of RMS `floor` that a model closes [%], when the
+/// residual RMS goes from `rms_before` to `rms_after`: `(before² − after²)/(before² − floor²)`.
+/// `None` when the gap power is within [`MIN_GAP_OVER_FLOOR`] of the floor's: nothing to close.
+pub fn closed_percent(rms_before: f64, rms_after: f64, floor: f64) -> Option<f64> {
+    let gap = rms_before.powi(2) - floor.powi(2);
+    (gap > MIN_GAP_OVER_FLOOR * floor.powi(2)).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / gap)
+}
+
 impl Baseline {
     /// Shrink of the held-out NRMSE [%].
     pub(crate) fn shrink_percent(&self, nrmse_after: f64) -> f64 {
         100.0 * (1.0 - nrmse_after / self.nrmse)
     }
 
-    /// Share of the gap power above the floor that a residual RMS of `rms_after` closes [%].
+    /// Share of the gap above the floor that a residual RMS of `rms_after` closes [%].
     pub(crate) fn closed_percent(&self, rms_after: f64) -> Option<f64> {
-        let floor = self.floor?;
-        let gap = self.rms.powi(2) - floor.powi(2);
-        (gap > MIN_GAP_OVER_FLOOR * floor.powi(2)).then(|| 100.0 * (self.rms.powi(2) - rms_after.powi(2)) / gap)
+        closed_percent(self.rms, rms_after, self.floor?)
     }
 }
 

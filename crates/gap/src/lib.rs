@@ -19,9 +19,9 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 
-pub use candidates::{EFFECTS, EffectFit, NotTested};
+pub use candidates::{EFFECTS, EffectFit, NotTested, closed_percent};
 
-pub use locate::{Band, Group, Where};
+pub use locate::{Band, FloorSource, Group, Where};
 pub use noise::noise_floor;
 
 /// Why a diagnosis could not be made.

@@ -40,13 +40,33 @@ pub(crate) enum Floor<'a> {
     Residual(&'a [f64]),
 }
 
+/// How the noise floor was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FloorSource {
+    /// White noise from fourth differences of `vout` between input steps, no model involved.
+    Differences,
+    /// The residual of the best significant model (the inputs step too often for the former).
+    ModelResidual,
+}
+
+impl FloorSource {
+    /// One line for people.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Differences => "white noise from fourth differences of vout between input steps (no model)",
+            Self::ModelResidual => "the residual of the best significant model (the inputs step too often for a model-free estimate)",
+        }
+    }
+}
+
 /// The breakdown of the gap.
 #[derive(Debug, Clone, Serialize)]
 pub struct Where {
     /// RMS of the noise floor [V].
     pub noise_floor_rms: f64,
     /// How the noise floor was found.
-    pub noise_floor_from: &'static str,
+    pub noise_floor_from: FloorSource,
     /// By frequency band (log-spaced up to the Nyquist frequency).
     pub bands: Vec<Band>,
     /// By operating point: duty level; sign and size of il, and DCM, when il is measured.
@@ -60,10 +80,15 @@ pub struct Where {
 const SEGMENT: usize = 256;
 const BANDS: usize = 6;
 
+/// The Hann window of `n` points (periodic).
+fn hann(n: usize) -> Vec<f64> {
+    (0..n).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos()).collect()
+}
+
 /// Welch periodogram (Hann window, 50 % overlap) of `x`, `SEGMENT/2 + 1` bins from 0 to fs/2.
 fn psd(x: &[f64]) -> Vec<f64> {
     let n = SEGMENT.min(x.len());
-    let window: Vec<f64> = (0..n).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos()).collect();
+    let window = hann(n);
     let mut acc = vec![0.0; n / 2 + 1];
     let mut segments = 0;
     let mut start = 0;
@@ -102,13 +127,12 @@ pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: Floo
     let (floor_rms, pf, noise_floor_from) = match floor {
         Floor::White(sigma) => {
             // White noise of variance σ² has σ²·Σw² in every bin of the Hann-windowed periodogram.
-            let m = SEGMENT.min(n);
-            let w2: f64 = (0..m).map(|i| (0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / m as f64).cos()).powi(2)).sum();
-            (sigma, vec![sigma * sigma * w2; bins], "white noise from fourth differences of vout between input steps (no model)")
+            let w2: f64 = hann(SEGMENT.min(n)).iter().map(|w| w * w).sum();
+            (sigma, vec![sigma * sigma * w2; bins], FloorSource::Differences)
         }
         Floor::Residual(r) => {
             let r = &r[..n.min(r.len())];
-            (crate::candidates::rms(r), psd(r), "the residual of the best significant model (the inputs step too often for a model-free estimate)")
+            (crate::candidates::rms(r), psd(r), FloorSource::ModelResidual)
         }
     };
     let edges: Vec<usize> = (0..=BANDS).map(|b| (((bins - 1) as f64).powf(b as f64 / BANDS as f64)).round() as usize).collect();

@@ -12,8 +12,6 @@ use estimator::validate::nrmse;
 
 use crate::candidates::{Baseline, ClMove, EffectFit, rms};
 
-/// Full scale the bit count is reported for [V] (the plant's `adc_vfs` default).
-const FULL_SCALE: f64 = 16.0;
 
 /// Fraction of the readings that must lie on the lattice.
 const ON_LATTICE: f64 = 0.999;
@@ -80,7 +78,8 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
     let quantized: Vec<f64> = traces.simulated.iter().map(|&x| expected_reading(x, grid, sigma)).collect();
     let nrmse_after = nrmse(&traces.measured, &quantized);
     let residual: Vec<f64> = traces.measured.iter().zip(&quantized).map(|(m, q)| m - q).collect();
-    let bits = (FULL_SCALE / grid.0).log2();
+    // Reported for the plant's default full scale (`adc_vfs`).
+    let bits = (buck_model::digital::Digital::default().adc_vfs / grid.0).log2();
     let rms_after = rms(&residual);
     Some(EffectFit {
         name: "adc_quantization",

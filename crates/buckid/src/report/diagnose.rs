@@ -152,7 +152,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         "<p>Where: {} (noise floor {:.3e} V RMS: {}; held-out residual {:.3e} V RMS).</p>",
         esc(&w.summary),
         w.noise_floor_rms,
-        esc(w.noise_floor_from),
+        esc(w.noise_floor_from.describe()),
         dx.gap_before.rms
     ));
     page.figure("gap_bands", bands.render());
