@@ -29,7 +29,8 @@ fn floor_error_percent(o: &Outcome) -> Option<f64> {
 /// One line per dataset on stderr.
 fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
-    eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, {floor}", index, o.source, o.truth.effect, o.verdict, o.seconds);
+    let check = o.cl_check.as_ref().map_or_else(String::new, |c| format!(", Cl test H {:.1}{}", c.hausman, if c.consistent { "" } else { " (widened)" }));
+    eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, {floor}{check}", index, o.source, o.truth.effect, o.verdict, o.seconds);
 }
 
 fn main() {
@@ -115,6 +116,22 @@ fn main() {
     for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && !o.closed_percent.is_some_and(|c| c >= 70.0)) {
         let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
         println!("- {} {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+    }
+    for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && o.cl_in_ci95 == Some(false)) {
+        let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
+        println!(
+            "- {} {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",
+            o.source,
+            o.truth.effect,
+            o.truth.cl * 1e6,
+            cl * 1e6,
+            lo * 1e6,
+            hi * 1e6,
+            100.0 * (cl / o.truth.cl - 1.0),
+            (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
+            o.truth.io,
+            o.truth.settings
+        );
     }
     for o in outcomes.iter().filter(|o| o.verdict != o.truth.effect) {
         println!("- {} {}: said {} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.verdict, o.truth.cl * 1e6, o.truth.io, o.truth.settings);

@@ -20,12 +20,25 @@ fn main() {
     }
     let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };
     let dx = gap::diagnose(&case.data, &case.nominal, &opts).unwrap();
-    println!("before {:.5} Cl {:.4} µF", dx.gap_before.nrmse, dx.gap_before.cl * 1e6);
+    println!(
+        "before {:.5} rms {:.3} mV Cl {:.4} µF, floor {:.3} mV ({:?})",
+        dx.gap_before.nrmse,
+        dx.gap_before.rms * 1e3,
+        dx.gap_before.cl * 1e6,
+        dx.location.noise_floor_rms * 1e3,
+        dx.location.noise_floor_from
+    );
     for e in &dx.effects {
         println!(
-            "{:20} nrmse {:.5} shrink {:6.1} aic {:10.1} dAIC {:8.1} LR {:?} sig {} Cl {:.4} {:?} {:?}",
-            e.name, e.nrmse_after, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.params, e.ci95
+            "{:20} nrmse {:.5} rms {:.3} mV shrink {:6.1} aic {:10.1} dAIC {:8.1} LR {:?} sig {} Cl {:.4} [{:.4}, {:.4}] {:?} {:?}",
+            e.name, e.nrmse_after, e.rms_after * 1e3, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, e.params, e.ci95
         );
     }
     println!("verdict {}", dx.verdict);
+    for e in dx.effects.iter().filter(|e| e.name == dx.verdict) {
+        println!("Cl {:.4} µF, CI95 [{:.4}, {:.4}]; test {:?} {:?}", e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, e.cl.check, e.cl.check_skipped);
+    }
+    if let Some(c) = &dx.gap_before.cl_check {
+        println!("nominal Cl CI95 [{:.4}, {:.4}]; test {c:?}", dx.gap_before.cl_ci95[0] * 1e6, dx.gap_before.cl_ci95[1] * 1e6);
+    }
 }

@@ -288,8 +288,12 @@ pub struct Outcome {
     pub closed_percent: Option<f64>,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
+    /// The verdict's Cl estimate and its CI95 [F].
+    pub cl: Option<(f64, [f64; 2])>,
     /// Whether the true Cl lies in the verdict's CI95.
     pub cl_in_ci95: Option<bool>,
+    /// The test of the verdict's Cl interval (see [`gap::ClCheck`]).
+    pub cl_check: Option<gap::ClCheck>,
     /// Wall time of the diagnosis [s].
     pub seconds: f64,
 }
@@ -307,7 +311,9 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         shrink_percent: None,
         closed_percent: None,
         noise_floor: None,
+        cl: None,
         cl_in_ci95: None,
+        cl_check: None,
         seconds,
     };
     match result {
@@ -317,6 +323,8 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
+            outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));
+            outcome.cl_check = best.and_then(|e| e.cl.check.clone());
             outcome.cl_in_ci95 = best.map(|e| e.cl.ci95[0] <= case.truth.cl && case.truth.cl <= e.cl.ci95[1]);
         }
         Err(e) => outcome.verdict = format!("error: {e}"),

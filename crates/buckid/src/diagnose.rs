@@ -132,6 +132,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         println!("not tested  {:18} {}", n.name, n.reason);
     }
     println!("verdict     {}", dx.verdict);
+    let (cl, ci95, test) = dx.final_cl();
+    println!("Cl          {:.4} µF, CI95 [{:.4}, {:.4}] µF; {test}", cl * 1e6, ci95[0] * 1e6, ci95[1] * 1e6);
 
     if let Some(path) = &args.json {
         let mut json = serde_json::to_value(&dx)?;

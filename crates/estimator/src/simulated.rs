@@ -42,6 +42,21 @@ const MAX_ITERATIONS: usize = 40;
 /// Largest step in `ln θ` per iteration (a factor e).
 const MAX_LOG_STEP: f64 = 1.0;
 
+/// What the fit minimizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Criterion {
+    /// The sum of squared simulation errors: maximum likelihood under white sensor noise.
+    #[default]
+    OutputError,
+    /// The sum of squared *differences* of successive simulation errors: the same model seen
+    /// through the high-pass `1 − q⁻¹`, which weights the fast dynamics (where a small `Cl`
+    /// shows) and ignores DC. Consistent for the same parameters when the model is right, so a
+    /// disagreement with [`Criterion::OutputError`] beyond their uncertainty exposes model error
+    /// (a Hausman test). Its covariance is the sandwich for the MA(1) noise that differencing
+    /// white noise leaves.
+    Differenced,
+}
+
 /// Simulated `vout` at every period start of `data` with circuit values `p`, starting with both
 /// capacitors at `v0` volts.
 pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, EstimatorError> {
@@ -80,8 +95,8 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
 }
 
 /// Residuals `y − ŷ` over the criterion samples `BURN_IN..n_est` at the unknowns
-/// `[ln θ | v0]` (`None` if the simulation fails).
-fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet) -> Option<DVector<f64>> {
+/// `[ln θ | v0]`, differenced for [`Criterion::Differenced`] (`None` if the simulation fails).
+fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion) -> Option<DVector<f64>> {
     // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
     let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
         Some(Type::Real { min, max, .. }) => (min..=max).contains(&l.exp()),
@@ -92,20 +107,24 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
     }
     let v0 = unknowns[free.len()];
     let sim = simulate(&with_logs(start, free, unknowns), estimation, v0).ok()?;
-    Some(DVector::from_iterator(
-        estimation.len() - BURN_IN,
-        estimation.vout[BURN_IN..].iter().zip(&sim[BURN_IN..]).map(|(y, s)| y - s),
-    ))
+    let error = estimation.vout[BURN_IN..].iter().zip(&sim[BURN_IN..]).map(|(y, s)| y - s);
+    Some(match criterion {
+        Criterion::OutputError => DVector::from_iterator(estimation.len() - BURN_IN, error),
+        Criterion::Differenced => {
+            let e: Vec<f64> = error.collect();
+            DVector::from_iterator(e.len() - 1, e.windows(2).map(|w| w[1] - w[0]))
+        }
+    })
 }
 
 /// Jacobian of the simulated output (`−∂r/∂[ln θ | v0]`) by forward differences from `r0`.
-fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
     let mut j = DMatrix::zeros(r0.len(), unknowns.len());
     for i in 0..unknowns.len() {
         let mut u = unknowns.to_vec();
         let h = if i < free.len() { FD_STEP } else { V0_STEP };
         u[i] += h;
-        let ri = residuals(start, free, &u, estimation)?;
+        let ri = residuals(start, free, &u, estimation, criterion)?;
         j.set_column(i, &((r0 - ri) / h));
     }
     Some(j)
@@ -113,8 +132,14 @@ fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSe
 
 /// Fits `free` (all positive; `start` holds their start values and every known value) to the
 /// first `n_est` samples of `data` and validates on the rest, as [`crate::identify::identify`]
-/// does for the grey-box structures.
+/// does for the grey-box structures. The criterion is the output error.
 pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Result<Candidate, EstimatorError> {
+    fit_with(data, start, free, n_est, Criterion::OutputError)
+}
+
+/// [`fit`] with the given criterion. [`Criterion::Differenced`] starts from `start` as given
+/// (it is meant to refit an output-error optimum); the output error also tries a coarse Cl grid.
+pub fn fit_with(data: &DataSet, start: &Params, free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
     data.validate()?;
     if free.is_empty() {
         return Err(EstimatorError::Config("at least one free parameter is needed".into()));
@@ -135,12 +160,13 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
     let clock = std::time::Instant::now();
     let estimation = data.slice(0..n_est);
     // Cl starts from the best of its start value and a coarse grid: a start taken from a model
-    // that cannot describe the data (e.g. a linear model on DCM data) may be far off.
-    if let Some(ci) = free.iter().position(|f| *f == Free::Cl) {
+    // that cannot describe the data (e.g. a linear model on DCM data) may be far off. The
+    // differenced criterion refits an output-error optimum and starts there.
+    if let Some(ci) = free.iter().position(|f| *f == Free::Cl).filter(|_| criterion == Criterion::OutputError) {
         let cost_at = |l: f64| {
             let mut u = logs.clone();
             u[ci] = l;
-            residuals(start, free, &u, &estimation).map_or(f64::INFINITY, |r| r.norm_squared())
+            residuals(start, free, &u, &estimation, criterion).map_or(f64::INFINITY, |r| r.norm_squared())
         };
         let best = std::iter::once(logs[ci])
             .chain(CL_GRID.iter().map(|c| c.ln()))
@@ -151,9 +177,9 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
         }
     }
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
-    let mut r = residuals(start, free, &logs, &estimation).ok_or_else(not_simulable)?;
+    let mut r = residuals(start, free, &logs, &estimation, criterion).ok_or_else(not_simulable)?;
     let mut cost = r.norm_squared();
-    let mut j = jacobian(start, free, &logs, &estimation, &r).ok_or_else(not_simulable)?;
+    let mut j = jacobian(start, free, &logs, &estimation, criterion, &r).ok_or_else(not_simulable)?;
     let np = logs.len();
     let dof = (r.len() - np) as f64;
     let mut lambda = 1e-3;
@@ -176,7 +202,7 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
             let largest = step.rows(0, free.len()).amax();
             let step = &step * (MAX_LOG_STEP / largest.max(MAX_LOG_STEP));
             let trial: Vec<f64> = logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect();
-            match residuals(start, free, &trial, &estimation) {
+            match residuals(start, free, &trial, &estimation, criterion) {
                 Some(rt) if rt.norm_squared() < cost => {
                     let gain = cost - rt.norm_squared();
                     // Converged when the decrease is far below one unit of the criterion's
@@ -198,10 +224,12 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
             converged = true; // no descent left: a minimum to working precision
             break;
         }
-        j = jacobian(start, free, &logs, &estimation, &r).ok_or_else(not_simulable)?;
+        j = jacobian(start, free, &logs, &estimation, criterion, &r).ok_or_else(not_simulable)?;
     }
-    let s2 = cost / dof;
-    let covariance = pem::covariance(j.transpose() * &j, s2)?;
+    let (s2, covariance) = match criterion {
+        Criterion::OutputError => (cost / dof, pem::covariance(j.transpose() * &j, cost / dof)?),
+        Criterion::Differenced => differenced_covariance(&j, cost / dof)?,
+    };
     let seconds = clock.elapsed().as_secs_f64();
     let params = with_logs(start, free, &logs);
     let estimates = pem::log_estimates(free, &logs, &covariance);
@@ -232,6 +260,20 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
     Ok(Candidate { structure: Structure::Simulated, fit, validation, seconds })
 }
 
+/// Sensor-noise variance and covariance of the unknowns for the differenced criterion, from the
+/// Jacobian `j` of the differenced residuals and their mean square `ms` (`≈ 2σ²`). Differenced
+/// white noise of variance `σ²` has the covariance `Σ = σ²·tridiag(−1, 2, −1)`, so the
+/// covariance is the sandwich `(JᵀJ)⁻¹·JᵀΣJ·(JᵀJ)⁻¹`.
+fn differenced_covariance(j: &DMatrix<f64>, ms: f64) -> Result<(f64, DMatrix<f64>), EstimatorError> {
+    let s2 = ms / 2.0;
+    let jtj = j.transpose() * j;
+    let n = j.nrows();
+    let lag = j.rows(0, n - 1).transpose() * j.rows(1, n - 1);
+    let meat = (&jtj * 2.0 - &lag - lag.transpose()) * s2;
+    let bread = pem::covariance(jtj, 1.0)?;
+    Ok((s2, &bread * meat * &bread))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,6 +295,25 @@ mod tests {
             assert!(e.rel_std < 0.05, "{name}: relative σ {}", e.rel_std);
         }
         assert!((c.fit.sigma[0] / 2e-3 - 1.0).abs() < 0.1, "residual σ {}", c.fit.sigma[0]);
+    }
+
+    /// With the right model the differenced criterion agrees with the output error: both
+    /// intervals hold the true Cl, the sensor σ comes out of the MA(1) residual, and the
+    /// output error (maximum likelihood here) is the more precise.
+    #[test]
+    fn differenced_criterion_agrees_with_output_error_on_a_right_model() {
+        let truth = Params { cl: 4.7e-6, ..Params::default() };
+        let exp = Experiment { samples: 800, noise_vout: 2e-3, io: 1.5, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let oe = fit(&data, &Params { cl: 3e-6, ..Params::default() }, &[Free::Cl], 600).unwrap();
+        let start = Params { cl: oe.fit.estimate("Cl").unwrap().value, ..Params::default() };
+        let hp = fit_with(&data, &start, &[Free::Cl], 600, Criterion::Differenced).unwrap();
+        let (a, b) = (oe.fit.estimate("Cl").unwrap(), hp.fit.estimate("Cl").unwrap());
+        for e in [a, b] {
+            assert!(e.ci95.0 < 4.7e-6 && 4.7e-6 < e.ci95.1, "{e:?}");
+        }
+        assert!(b.rel_std >= a.rel_std, "high-pass σ {} below the output error's {}", b.rel_std, a.rel_std);
+        assert!((hp.fit.sigma[0] / 2e-3 - 1.0).abs() < 0.1, "sensor σ from the differenced residual {}", hp.fit.sigma[0]);
     }
 
     #[test]

@@ -10,6 +10,7 @@ use estimator::validate::chi2_99;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::consistency::ClCheck;
 use crate::{DiagnoseOptions, Nominal, nominal_options};
 
 /// Every effect of the design table, by its contract name.
@@ -50,6 +51,14 @@ pub struct ClMove {
     pub ci95: [f64; 2],
     /// Change against the nominal fit [%].
     pub moved_percent: f64,
+    /// The test of the interval, for the verdict (see `consistency`): when it fails, `ci95` is
+    /// the hull of the model's interval and the high-pass fit's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check: Option<ClCheck>,
+    /// Why the verdict's interval was not tested (e.g. averaged data, which the switched
+    /// simulator cannot fit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check_skipped: Option<String>,
 }
 
 impl ClMove {
@@ -60,6 +69,8 @@ impl ClMove {
             estimate: cl.map_or(f64::NAN, |e| e.value),
             ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
             moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+            check: None,
+            check_skipped: None,
         }
     }
 }
@@ -186,7 +197,7 @@ pub(crate) fn residual(c: &Candidate) -> Vec<f64> {
 }
 
 /// The duty delayed by `n` periods (the first periods repeat the first duty).
-fn delayed(data: &DataSet, n: usize) -> DataSet {
+pub(crate) fn delayed(data: &DataSet, n: usize) -> DataSet {
     let mut d = data.clone();
     d.duty = (0..data.len()).map(|k| data.duty[k.saturating_sub(n)]).collect();
     d
@@ -284,7 +295,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
-const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
+pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], dcm: false },
     SimulatedEffect { name: "dcm", extra: &[], dcm: true },
     SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], dcm: false },
@@ -295,12 +306,12 @@ const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
 ];
 
 /// A nonlinear effect fitted with the plant simulator.
-struct SimulatedEffect {
-    name: &'static str,
+pub(crate) struct SimulatedEffect {
+    pub name: &'static str,
     /// Free parameters besides Cl, with start values (NaN: from the data).
-    extra: &'static [(Free, f64)],
+    pub extra: &'static [(Free, f64)],
     /// The low side is an ideal diode.
-    dcm: bool,
+    pub dcm: bool,
 }
 
 /// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the

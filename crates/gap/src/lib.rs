@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 mod candidates;
+mod consistency;
 mod locate;
 mod noise;
 mod quantization;
@@ -19,7 +20,8 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 
-pub use candidates::{EFFECTS, EffectFit, NotTested, closed_percent};
+pub use candidates::{ClMove, EFFECTS, EffectFit, NotTested, closed_percent};
+pub use consistency::ClCheck;
 
 pub use locate::{Band, FloorSource, Group, Where};
 pub use noise::noise_floor;
@@ -86,6 +88,12 @@ pub struct Before {
     pub rms: f64,
     /// Cl of the nominal fit [F].
     pub cl: f64,
+    /// Its CI95 [F]: the model's own, or, when the verdict is `none` and the interval's test
+    /// fails, the hull with the high-pass fit's (see [`ClCheck`]).
+    pub cl_ci95: [f64; 2],
+    /// The test of the interval when the verdict is `none`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_check: Option<ClCheck>,
 }
 
 /// Result of [`diagnose`].
@@ -107,6 +115,19 @@ pub struct Diagnosis {
     /// Held-out traces for plots.
     #[serde(skip)]
     pub traces: Traces,
+}
+
+impl Diagnosis {
+    /// Cl of the model the diagnosis ends with (the verdict's, or the nominal's when the verdict
+    /// is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
+    pub fn final_cl(&self) -> (f64, [f64; 2], String) {
+        let (cl, ci95, check, skipped) = match self.effects.iter().find(|e| e.name == self.verdict) {
+            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref()),
+            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), None),
+        };
+        let test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or("no switched data")), ToString::to_string);
+        (cl, ci95, test)
+    }
 }
 
 /// The nominal model with Cl free.
@@ -149,6 +170,28 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .filter(|e| e.significant)
         .min_by(|a, b| a.aic.total_cmp(&b.aic))
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
+    // Cl's interval of the final model, tested against the high-pass fit (switched data only:
+    // the test refits with the switched plant simulator).
+    let switched = opts.nominal == Nominal::Switched || effects.iter().any(|e| e.name == "switching_ripple" && e.significant);
+    let base_cl = base.fit.estimate("Cl").map(|e| [e.ci95.0, e.ci95.1]).unwrap_or([f64::NAN; 2]);
+    let mut before_check = None;
+    let test = |effect: Option<&EffectFit>, cl: f64, ci95: [f64; 2]| {
+        if switched { consistency::check(data, nominal, effect, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) }
+    };
+    if let Some(i) = effects.iter().position(|e| e.name == verdict) {
+        let e = &effects[i];
+        let result = test(Some(e), e.cl.estimate, e.cl.ci95);
+        let cl = &mut effects[i].cl;
+        match result {
+            Ok(check) => {
+                cl.ci95 = check.ci95();
+                cl.check = Some(check);
+            }
+            Err(reason) => cl.check_skipped = Some(reason),
+        }
+    } else {
+        before_check = test(None, baseline.cl, base_cl).ok();
+    }
     // The noise floor from the data alone; where the inputs step too often for that, what the
     // best significant model leaves (else the nominal residual).
     let floor = match baseline.floor {
@@ -163,7 +206,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
-        gap_before: Before { model: base.structure.name(), nrmse: baseline.nrmse, rms: baseline.rms, cl: baseline.cl },
+        gap_before: Before {
+            model: base.structure.name(),
+            nrmse: baseline.nrmse,
+            rms: baseline.rms,
+            cl: baseline.cl,
+            cl_ci95: before_check.as_ref().map_or(base_cl, ClCheck::ci95),
+            cl_check: before_check,
+        },
         location,
         effects,
         not_tested,

@@ -89,3 +89,30 @@ fn capacitor_parasitics_are_found_behind_the_switching_ripple() {
     c.set(VarId::Esl, 1e-9).unwrap();
     check(&data(c), "esl");
 }
+
+/// Cl's interval is tested against the high-pass refit: a right model passes and keeps its own
+/// interval; a model that misses a second effect (dead time named, a 30 mΩ load ESR left out)
+/// moves Cl outside that interval, and the test catches it and widens the interval over the true Cl.
+#[test]
+fn cl_interval_is_widened_exactly_when_the_model_misses() {
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::DeadTime, 40e-9).unwrap();
+    let dx = diagnose(&data(c), &Params::default(), &DiagnoseOptions::default()).unwrap();
+    let fit = dx.effects.iter().find(|e| e.name == "dead_time").unwrap();
+    let test = fit.cl.check.as_ref().unwrap();
+    assert!(test.consistent, "right model flagged: {test:?}");
+    assert_eq!(fit.cl.ci95, test.model_ci95);
+
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::DeadTime, 30e-9).unwrap();
+    c.set(VarId::LoadEsr, 0.03).unwrap();
+    let dx = diagnose(&data(c), &Params::default(), &DiagnoseOptions::default()).unwrap();
+    assert_eq!(dx.verdict, "dead_time");
+    let fit = dx.effects.iter().find(|e| e.name == "dead_time").unwrap();
+    let test = fit.cl.check.as_ref().unwrap();
+    let [lo, hi] = test.model_ci95;
+    assert!(!(lo..=hi).contains(&CL), "the model's own interval already holds Cl: {test:?}");
+    assert!(!test.consistent && test.hausman > test.limit, "{test:?}");
+    let [lo, hi] = fit.cl.ci95;
+    assert!(lo <= CL && CL <= hi, "Cl {CL:e} outside the widened [{lo:e}, {hi:e}]");
+}

@@ -148,6 +148,8 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         dx.gap_before.cl * 1e6,
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {nrmse:.4}.", esc(path))),
     ));
+    let (cl, ci95, test) = dx.final_cl();
+    page.html(&format!("<p>Cl of the final model: {:.4} µF, CI95 [{:.4}, {:.4}] µF; {}.</p>", cl * 1e6, ci95[0] * 1e6, ci95[1] * 1e6, esc(&test)));
     page.html(&format!(
         "<p>Where: {} (noise floor {:.3e} V RMS: {}; held-out residual {:.3e} V RMS).</p>",
         esc(&w.summary),

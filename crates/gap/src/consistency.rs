@@ -1,0 +1,138 @@
+//! Whether Cl's interval can be trusted: a Hausman test between two criteria.
+//!
+//! Cl's CI95 from a fit is conditional on the model: when an effect is still missing or only
+//! approximated (a Schottky diode fitted as a constant drop, MOSFET body diodes fitted as ideal
+//! dead time), Cl is biased by many of its standard deviations, and the interval says nothing
+//! about it. The residual cannot show that bias: at the optimum the model error that Cl absorbed
+//! has been fitted away.
+//!
+//! What the data can show is whether two estimators that agree when the model is right agree
+//! here. The final model is refitted with the plant simulator through the high-pass criterion
+//! ([`Criterion::Differenced`], which weights the fast dynamics where a small Cl shows and
+//! ignores DC) with the same parameters free. Under a right model both are consistent and the
+//! output-error fit is efficient, so `(ln Cl₁ − ln Cl₂)² / (var₂ − var₁)` is χ²₁ (Hausman).
+//! When it exceeds the 99 % point the model error moves Cl by about the distance `d` between
+//! the two estimates, and no weighting is free of it: the reported CI95 becomes the hull of both
+//! intervals widened by `d` on each side (a type-B term in the metrologist's sense). Wider,
+//! and honest about what the model can tell.
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::model::Free;
+use estimator::simulated::{Criterion, fit_with};
+use estimator::validate::chi2_99;
+use serde::Serialize;
+
+use crate::candidates::{EffectFit, SIMULATED_EFFECTS, delayed};
+
+/// The test of Cl's interval.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClCheck {
+    /// Cl of the output-error fit, the one tested [F].
+    pub estimate: f64,
+    /// Cl fitted through the high-pass criterion, same parameters free [F].
+    pub high_pass: f64,
+    /// Its CI95 [F].
+    pub high_pass_ci95: [f64; 2],
+    /// The output-error fit's own CI95, which assumes the model is right [F].
+    pub model_ci95: [f64; 2],
+    /// Hausman statistic of the difference in `ln Cl` (χ²₁ when the model is right).
+    pub hausman: f64,
+    /// Its 99 % critical value.
+    pub limit: f64,
+    /// The two estimates agree; when not, the reported CI95 is the hull of both intervals
+    /// widened by their distance on each side.
+    pub consistent: bool,
+}
+
+impl ClCheck {
+    /// The CI95 to report: the model's own, or, when the estimates disagree, the hull of both
+    /// intervals widened by the estimates' distance on each side (in `ln Cl`).
+    pub fn ci95(&self) -> [f64; 2] {
+        if self.consistent {
+            return self.model_ci95;
+        }
+        let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
+        [self.model_ci95[0].min(self.high_pass_ci95[0]) / d, self.model_ci95[1].max(self.high_pass_ci95[1]) * d]
+    }
+}
+
+impl std::fmt::Display for ClCheck {
+    /// One sentence on the test, for people.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.consistent {
+            write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1})", self.high_pass * 1e6, self.hausman, self.limit)
+        } else {
+            write!(
+                f,
+                "widened: the high-pass refit gives {:.4} µF (Hausman {:.1} > {:.1}), so the model still misses something that moves Cl",
+                self.high_pass * 1e6,
+                self.hausman,
+                self.limit
+            )
+        }
+    }
+}
+
+/// Standard deviation of `ln Cl` from a CI95 of the log-normal approximation.
+fn log_sd([lo, hi]: [f64; 2]) -> f64 {
+    (hi.ln() - lo.ln()) / (2.0 * 1.959_964)
+}
+
+/// How the plant simulator expresses a final model: circuit values to start from, the free
+/// parameters (Cl first), and the duty delay.
+fn simulator_model(effect: Option<&EffectFit>, nominal: &Params, cl: f64) -> Result<(Params, Vec<Free>, usize), String> {
+    let mut p = Params { cl, ..*nominal };
+    let mut free = vec![Free::Cl];
+    let mut delay = 0;
+    let Some(e) = effect else { return Ok((p, free, delay)) };
+    let param = |key: &str| e.params.get(key).copied().ok_or_else(|| format!("{} has no parameter `{key}`", e.name));
+    match e.name {
+        "switching_ripple" | "adc_quantization" => {}
+        "switch_resistance" => {
+            p.rl += param("switch_resistance")?;
+            free.push(Free::RL);
+        }
+        "param_drift" => {
+            let f = [Free::L, Free::C, Free::Rc].into_iter().find(|f| e.params.contains_key(f.name())).ok_or("param_drift names no parameter")?;
+            f.set(&mut p, param(f.name())?);
+            free.push(f);
+        }
+        "delay" => delay = param("delay")? as usize,
+        name => {
+            let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+            p.dcm = s.dcm;
+            for &(f, _) in s.extra {
+                f.set(&mut p, param(f.name())?);
+                free.push(f);
+            }
+        }
+    }
+    Ok((p, free, delay))
+}
+
+/// Tests Cl's interval `model_ci95` around `cl` of the final model (`effect`, or the nominal
+/// when `None`) on switched data.
+pub(crate) fn check(data: &DataSet, nominal: &Params, effect: Option<&EffectFit>, cl: f64, model_ci95: [f64; 2], n_est: usize) -> Result<ClCheck, String> {
+    let (start, free, delay) = simulator_model(effect, nominal, cl)?;
+    let shifted;
+    let data = if delay > 0 {
+        shifted = delayed(data, delay);
+        &shifted
+    } else {
+        data
+    };
+    let cand = fit_with(data, &start, &free, n_est, Criterion::Differenced).map_err(|e| e.to_string())?;
+    let hp = cand.fit.estimate("Cl").ok_or("the high-pass fit has no Cl")?;
+    let high_pass_ci95 = [hp.ci95.0, hp.ci95.1];
+    let (sd_model, sd_hp) = (log_sd(model_ci95), hp.rel_std);
+    // Hausman: the efficient estimator's variance comes off the other's; a difference at or
+    // below zero (the two nearly equally efficient, up to the finite-difference Jacobian) is
+    // replaced by the sum, which can only make the test milder.
+    let var = match sd_hp.powi(2) - sd_model.powi(2) {
+        v if v > 0.0 => v,
+        _ => sd_hp.powi(2) + sd_model.powi(2),
+    };
+    let hausman = (cl.ln() - hp.value.ln()).powi(2) / var;
+    let limit = chi2_99(1);
+    Ok(ClCheck { estimate: cl, high_pass: hp.value, high_pass_ci95, model_ci95, hausman, limit, consistent: hausman.is_finite() && hausman <= limit })
+}
