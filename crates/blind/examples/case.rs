@@ -34,6 +34,9 @@ fn main() {
             e.name, e.nrmse_after, e.rms_after * 1e3, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, e.params, e.ci95
         );
     }
+    for n in &dx.not_tested {
+        println!("not tested {}: {}", n.name, n.reason);
+    }
     println!("verdict {}", dx.verdict);
     for e in dx.effects.iter().filter(|e| e.name == dx.verdict) {
         println!("Cl {:.4} µF, CI95 [{:.4}, {:.4}]; test {:?} {:?}", e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, e.cl.check, e.cl.check_skipped);

@@ -121,11 +121,15 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
 fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
     let mut j = DMatrix::zeros(r0.len(), unknowns.len());
     for i in 0..unknowns.len() {
-        let mut u = unknowns.to_vec();
         let h = if i < free.len() { FD_STEP } else { V0_STEP };
-        u[i] += h;
-        let ri = residuals(start, free, &u, estimation, criterion)?;
-        j.set_column(i, &((r0 - ri) / h));
+        // Forward, or backward at the upper end of a parameter's range.
+        let at = |step: f64| {
+            let mut u = unknowns.to_vec();
+            u[i] += step;
+            residuals(start, free, &u, estimation, criterion).map(|r| (r, step))
+        };
+        let (ri, step) = at(h).or_else(|| at(-h))?;
+        j.set_column(i, &((r0 - ri) / step));
     }
     Some(j)
 }
@@ -140,6 +144,17 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
 /// [`fit`] with the given criterion. [`Criterion::Differenced`] starts from `start` as given
 /// (it is meant to refit an output-error optimum); the output error also tries a coarse Cl grid.
 pub fn fit_with(data: &DataSet, start: &Params, free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
+    fit_from(data, std::slice::from_ref(start), free, n_est, criterion)
+}
+
+/// [`fit_with`] from the best of several starts (by the criterion, each with the Cl grid for
+/// the output error): for parameters whose criterion has local minima over their range (a
+/// diode drop far from its start leaves Cl and the drop in a wrong valley). The known values
+/// come from the first start.
+pub fn fit_from(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
+    let Some(start) = starts.first() else {
+        return Err(EstimatorError::Config("at least one start is needed".into()));
+    };
     data.validate()?;
     if free.is_empty() {
         return Err(EstimatorError::Config("at least one free parameter is needed".into()));
@@ -151,31 +166,33 @@ pub fn fit_with(data: &DataSet, start: &Params, free: &[Free], n_est: usize, cri
             data.len()
         )));
     }
-    let mut logs: Vec<f64> = free.iter().map(|f| f.get(start).ln()).collect();
-    if logs.iter().any(|l| !l.is_finite()) {
+    // The unknowns `[ln θ | v0]` of each start; the initial voltage starts at the first
+    // measured sample.
+    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.get(s).ln()).chain([data.vout[0]]).collect()).collect();
+    if tries.iter().flatten().any(|l| !l.is_finite()) {
         return Err(EstimatorError::Config("start values of free parameters must be positive".into()));
     }
-    // The initial voltage starts at the first measured sample.
-    logs.push(data.vout[0]);
     let clock = std::time::Instant::now();
     let estimation = data.slice(0..n_est);
     // Cl starts from the best of its start value and a coarse grid: a start taken from a model
     // that cannot describe the data (e.g. a linear model on DCM data) may be far off. The
     // differenced criterion refits an output-error optimum and starts there.
     if let Some(ci) = free.iter().position(|f| *f == Free::Cl).filter(|_| criterion == Criterion::OutputError) {
-        let cost_at = |l: f64| {
-            let mut u = logs.clone();
-            u[ci] = l;
-            residuals(start, free, &u, &estimation, criterion).map_or(f64::INFINITY, |r| r.norm_squared())
-        };
-        let best = std::iter::once(logs[ci])
-            .chain(CL_GRID.iter().map(|c| c.ln()))
-            .map(|l| (cost_at(l), l))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((_, l)) = best {
-            logs[ci] = l;
-        }
+        tries = tries
+            .into_iter()
+            .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|c| c.ln())).map(move |l| {
+                let mut u = t.clone();
+                u[ci] = l;
+                u
+            }))
+            .collect();
     }
+    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion).map_or(f64::INFINITY, |r| r.norm_squared());
+    let mut logs = if tries.len() == 1 {
+        tries.swap_remove(0)
+    } else {
+        tries.into_iter().map(|u| (cost_at(&u), u)).min_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, u)| u).unwrap_or_default()
+    };
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
     let mut r = residuals(start, free, &logs, &estimation, criterion).ok_or_else(not_simulable)?;
     let mut cost = r.norm_squared();

@@ -6,6 +6,7 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
+use estimator::simulated::Criterion;
 use estimator::validate::chi2_99;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -177,8 +178,9 @@ struct Trial {
     ci95: BTreeMap<String, [f64; 2]>,
     /// Extra estimated values against the nominal model (0 for a swapped structure).
     extra: usize,
-    /// A discrete choice was made (e.g. the delay), so the LR test does not apply.
-    discrete: bool,
+    /// Not nested in the model it is judged against by continuous parameters (a discrete
+    /// choice such as the delay, or a different model class), so the LR test does not apply.
+    not_nested: bool,
 }
 
 /// Residual variance of a candidate's fit on the estimation part.
@@ -228,7 +230,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     let ripple = (opts.nominal == Nominal::Averaged)
         .then(|| run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }))
         .flatten()
-        .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, discrete: false }, base));
+        .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, not_nested: false }, base));
     // Stage two: each other candidate on the averaged model and, when the ripple is
     // significant, also on the PWM model; the better held-out fit counts, judged against its base.
     let pwm_base = ripple.as_ref().filter(|r| r.0.significant).map(|r| &r.1);
@@ -263,17 +265,21 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         let cl = switched_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
         let start = Params { cl, ..*nominal };
         let (reference, trials) = rayon::join(|| estimator::simulated::fit(data, &start, &[Free::Cl], n_est), || simulated_trials(data, &start, n_est));
-        let reference = match reference {
-            Ok(r) => r,
-            Err(e) => return (Vec::new(), untested(&format!("the switched simulator with Cl alone, which these effects are judged against, did not fit: {e}"))),
+        // Where the simulator with Cl alone cannot fit the data (e.g. DCM data, which no
+        // diode-free circuit follows), the effects are judged against the model they extend,
+        // by Akaike's criterion (not nested in it).
+        let (reference, not_nested) = match &reference {
+            Ok(r) => (r, false),
+            Err(_) => (switched_base, true),
         };
-        let offset = n_est as f64 * (variance(switched_base).ln() - variance(&reference).ln());
+        let offset = n_est as f64 * (variance(switched_base).ln() - variance(reference).ln());
         let mut fits = Vec::new();
         let mut failed = Vec::new();
         for (name, trial) in trials {
             match trial {
-                Ok(trial) => {
-                    let mut fit = judge(name, trial, &reference).0;
+                Ok(mut trial) => {
+                    trial.not_nested |= not_nested;
+                    let mut fit = judge(name, trial, reference).0;
                     fit.aic += offset;
                     fits.push(fit);
                 }
@@ -296,13 +302,14 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
 pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
-    SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], dcm: false },
-    SimulatedEffect { name: "dcm", extra: &[], dcm: true },
-    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], dcm: false },
-    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], dcm: false },
-    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], dcm: false },
-    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], dcm: false },
-    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], dcm: false },
+    // A drop far above its start leaves a DCM fit in a wrong valley (Cl at 0.1 µF): two starts.
+    SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], dcm: false },
+    SimulatedEffect { name: "dcm", extra: &[], also_from: &[], dcm: true },
+    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[], dcm: false },
 ];
 
 /// A nonlinear effect fitted with the plant simulator.
@@ -310,6 +317,8 @@ pub(crate) struct SimulatedEffect {
     pub name: &'static str,
     /// Free parameters besides Cl, with start values (NaN: from the data).
     pub extra: &'static [(Free, f64)],
+    /// Further start values of the first of them; the fit goes on from the best start.
+    pub also_from: &'static [f64],
     /// The low side is an ideal diode.
     pub dcm: bool,
 }
@@ -321,7 +330,7 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
     let io = data.io.iter().sum::<f64>() / data.len() as f64;
     SIMULATED_EFFECTS
         .par_iter()
-        .map(|&SimulatedEffect { name, extra, dcm }| {
+        .map(|&SimulatedEffect { name, extra, also_from, dcm }| {
             let mut p = Params { dcm, ..*start };
             let mut free = vec![Free::Cl];
             for &(f, v) in extra {
@@ -329,7 +338,15 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
                 f.set(&mut p, if v.is_nan() { io.abs() + 0.5 } else { v });
                 free.push(f);
             }
-            let trial = estimator::simulated::fit(data, &p, &free, n_est).map_err(|e| e.to_string()).and_then(|cand| {
+            let mut starts = vec![p];
+            if let Some(&(f, _)) = extra.first() {
+                starts.extend(also_from.iter().map(|&v| {
+                    let mut q = p;
+                    f.set(&mut q, v);
+                    q
+                }));
+            }
+            let trial = estimator::simulated::fit_from(data, &starts, &free, n_est, Criterion::OutputError).map_err(|e| e.to_string()).and_then(|cand| {
                 let mut params = BTreeMap::new();
                 let mut ci95 = BTreeMap::new();
                 for &(f, _) in extra {
@@ -340,7 +357,7 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
                 if dcm {
                     params.insert("dcm".to_string(), 1.0);
                 }
-                Ok(Trial { cand, params, ci95, extra: extra.len(), discrete: dcm })
+                Ok(Trial { cand, params, ci95, extra: extra.len(), not_nested: dcm })
             });
             (name, trial)
         })
@@ -363,7 +380,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
             params.insert(format!("{}_nominal", f.name()), f.get(nominal));
             ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
         }
-        trials.push(("param_drift", Trial { cand, params, ci95, extra: 1, discrete: false }));
+        trials.push(("param_drift", Trial { cand, params, ci95, extra: 1, not_nested: false }));
     }
     // switch_resistance: extra series resistance on top of RL (a fitted RL below the nominal is
     // not this effect: resistance is only ever added).
@@ -373,7 +390,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
     {
         let params = BTreeMap::from([("switch_resistance".to_string(), e.value - nominal.rl)]);
         let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);
-        trials.push(("switch_resistance", Trial { cand, params, ci95, extra: 1, discrete: false }));
+        trials.push(("switch_resistance", Trial { cand, params, ci95, extra: 1, not_nested: false }));
     }
     // delay: the duty drives the switch 1 or 2 periods late.
     let delay = (1..=2usize)
@@ -381,7 +398,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
         .min_by(|a, b| held_out_nrmse(&a.1).total_cmp(&held_out_nrmse(&b.1)));
     if let Some((n, cand)) = delay {
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
-        trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, discrete: true }));
+        trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true }));
     }
     trials
 }
@@ -394,7 +411,7 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
     let nrmse_against = held_out_nrmse(against);
     let lr = n_est as f64 * (var(against) / var(&t.cand)).ln();
     let delta_aic = -lr + 2.0 * t.extra as f64;
-    let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.discrete {
+    let (lr_statistic, lr_limit, passes) = if t.extra > 0 && !t.not_nested {
         let limit = chi2_99(t.extra);
         (Some(lr), Some(limit), lr > limit)
     } else {

@@ -116,3 +116,22 @@ fn cl_interval_is_widened_exactly_when_the_model_misses() {
     let [lo, hi] = fit.cl.ci95;
     assert!(lo <= CL && CL <= hi, "Cl {CL:e} outside the widened [{lo:e}, {hi:e}]");
 }
+
+/// A large diode drop in deep DCM (0.77 V, 1.24 A, Cl 45 µF): the diode-free simulator cannot
+/// fit the data at all, and a drop started far below its value falls into a valley with Cl at
+/// 0.1 µF. The effect is still found, judged against the PWM model, from the better start.
+#[test]
+fn large_diode_drop_in_deep_dcm_is_found() {
+    let cl = 45e-6;
+    let mut c = plant(Params { cl, ..Params::default() }, Mode::Switched);
+    c.set(VarId::DiodeDrop, 0.77).unwrap();
+    let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_seed: 11, io: 1.24, ..Experiment::default() };
+    let mut d = run(&mut ModelPlant::with_converter_in_open_loop(c), &exp).unwrap();
+    d.meta.retain(|k, _| k == "fs" || k == "U");
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    assert_eq!(dx.verdict, "diode_drop", "not tested: {:?}", dx.not_tested);
+    let fit = dx.effects.iter().find(|e| e.name == "diode_drop").unwrap();
+    let [lo, hi] = fit.cl.ci95;
+    assert!(lo <= cl && cl <= hi, "Cl {:e} outside [{lo:e}, {hi:e}]", fit.cl.estimate);
+    assert!((fit.params["diode_drop"] - 0.77).abs() < 0.01, "{:?}", fit.params);
+}
