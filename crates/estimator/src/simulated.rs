@@ -141,16 +141,15 @@ pub fn fit(data: &DataSet, start: &Params, free: &[Free], n_est: usize) -> Resul
     fit_with(data, start, free, n_est, Criterion::OutputError)
 }
 
-/// [`fit`] with the given criterion. [`Criterion::Differenced`] starts from `start` as given
-/// (it is meant to refit an output-error optimum); the output error also tries a coarse Cl grid.
+/// [`fit`] with the given criterion.
 pub fn fit_with(data: &DataSet, start: &Params, free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
     fit_from(data, std::slice::from_ref(start), free, n_est, criterion)
 }
 
-/// [`fit_with`] from the best of several starts (by the criterion, each with the Cl grid for
-/// the output error): for parameters whose criterion has local minima over their range (a
-/// diode drop far from its start leaves Cl and the drop in a wrong valley). The known values
-/// come from the first start.
+/// [`fit_with`] from the best of several starts (by the criterion, each with a coarse Cl
+/// grid): for parameters whose criterion has local minima over their range (a diode drop far
+/// from its start leaves Cl and the drop in a wrong valley). The known values come from the
+/// first start.
 pub fn fit_from(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
     let Some(start) = starts.first() else {
         return Err(EstimatorError::Config("at least one start is needed".into()));
@@ -175,9 +174,10 @@ pub fn fit_from(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, 
     let clock = std::time::Instant::now();
     let estimation = data.slice(0..n_est);
     // Cl starts from the best of its start value and a coarse grid: a start taken from a model
-    // that cannot describe the data (e.g. a linear model on DCM data) may be far off. The
-    // differenced criterion refits an output-error optimum and starts there.
-    if let Some(ci) = free.iter().position(|f| *f == Free::Cl).filter(|_| criterion == Criterion::OutputError) {
+    // that cannot describe the data (e.g. a linear model on DCM data) may be far off, and where
+    // the model misses, the differenced criterion can have its best valley far from the
+    // output error's.
+    if let Some(ci) = free.iter().position(|f| *f == Free::Cl) {
         tries = tries
             .into_iter()
             .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|c| c.ln())).map(move |l| {
