@@ -119,11 +119,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
             e.nrmse_after,
             -e.shrink_percent,
             e.closed_percent.map_or_else(|| "   –   ".to_string(), |c| format!("{c:5.1} %")),
-            match (e.significant, e.identifiable) {
-                (true, _) => "significant",
-                (false, true) => "not significant",
-                (false, false) => "not identifiable",
-            },
+            e.standing(),
             e.cl.estimate * 1e6,
             params.join(", ")
         );

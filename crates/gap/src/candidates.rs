@@ -119,6 +119,17 @@ pub struct EffectFit {
     pub residual: Vec<f64>,
 }
 
+impl EffectFit {
+    /// Its standing in words: `significant`, `not significant` or `not identifiable`.
+    pub fn standing(&self) -> &'static str {
+        match (self.significant, self.identifiable) {
+            (true, _) => "significant",
+            (false, true) => "not significant",
+            (false, false) => "not identifiable",
+        }
+    }
+}
+
 /// What every candidate is measured against: the nominal model's held-out error and Cl, and
 /// the noise floor.
 #[derive(Debug, Clone, Copy)]
@@ -205,11 +216,12 @@ pub(crate) fn delayed(data: &DataSet, n: usize) -> DataSet {
     d
 }
 
-fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Option<Candidate> {
-    identify(data, nominal, &opts).ok().map(|id| id.best().clone())
+fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candidate, String> {
+    identify(data, nominal, &opts).map(|id| id.best().clone()).map_err(|e| e.to_string())
 }
 
-/// Fits every modelled candidate; those whose fit fails (e.g. not identifiable) are left out.
+/// Fits every modelled candidate; those whose fit fails (e.g. not identifiable) are returned as
+/// not tested, with the reason.
 ///
 /// Two stages: `switching_ripple` (the PWM model instead of the averaged one) is judged against
 /// the nominal model first. When it is significant the ripple may be in the data whatever else
@@ -227,10 +239,15 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
 
     // With a switched nominal the ripple is already in the model: no `switching_ripple`
     // candidate, and everything is judged against the nominal.
-    let ripple = (opts.nominal == Nominal::Averaged)
-        .then(|| run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }))
-        .flatten()
-        .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, not_nested: false }, base));
+    let mut not_tested = Vec::new();
+    let ripple = match (opts.nominal == Nominal::Averaged).then(|| run(data, nominal, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() })) {
+        Some(Err(e)) => {
+            not_tested.push(NotTested { name: "switching_ripple", reason: format!("the PWM model's fit failed: {e}") });
+            None
+        }
+        fit => fit.and_then(Result::ok),
+    }
+    .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, not_nested: false }, base));
     // Stage two: each other candidate on the averaged model and, when the ripple is
     // significant, also on the PWM model; the better held-out fit counts, judged against its base.
     let pwm_base = ripple.as_ref().filter(|r| r.0.significant).map(|r| &r.1);
@@ -244,8 +261,18 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
     let grey_box = || {
         let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
+        let mut failed: Vec<NotTested> = Vec::new();
         for (against, opts) in &bases {
             for (name, trial) in effect_trials(data, nominal, opts) {
+                let trial = match trial {
+                    Ok(t) => t,
+                    Err(reason) => {
+                        if !failed.iter().any(|f| f.name == name) {
+                            failed.push(NotTested { name, reason });
+                        }
+                        continue;
+                    }
+                };
                 match best.iter_mut().find(|b| b.0 == name) {
                     Some(b) if held_out_nrmse(&b.1.cand) <= held_out_nrmse(&trial.cand) => {}
                     Some(b) => *b = (name, trial, against),
@@ -253,7 +280,9 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
                 }
             }
         }
-        best
+        // Fitted on one base: not "not tested" for failing on the other.
+        failed.retain(|f| !best.iter().any(|b| b.0 == f.name));
+        (best, failed)
     };
     let simulated = || -> (Vec<EffectFit>, Vec<NotTested>) {
         let untested = |reason: &str| SIMULATED_EFFECTS.iter().map(|e| NotTested { name: e.name, reason: reason.to_string() }).collect();
@@ -288,7 +317,9 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         }
         (fits, failed)
     };
-    let (best, (mut extra, not_tested)) = rayon::join(grey_box, simulated);
+    let ((best, grey_box_failed), (mut extra, simulated_failed)) = rayon::join(grey_box, simulated);
+    not_tested.extend(grey_box_failed);
+    not_tested.extend(simulated_failed);
     if let Some(fit) = crate::quantization::candidate(data, switched_base, n_est, baseline) {
         extra.push(fit);
     }
@@ -364,43 +395,47 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
         .collect()
 }
 
-/// The candidates other than the structure: each one's fit on top of `base_opts`.
-fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) -> Vec<(&'static str, Trial)> {
-    let mut trials = Vec::new();
-    // param_drift: one "known" value freed (the best of L, C, Rc).
-    let drift = [Free::L, Free::C, Free::Rc]
-        .into_iter()
-        .filter_map(|f| run(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }).map(|c| (f, c)))
-        .min_by(|a, b| held_out_nrmse(&a.1).total_cmp(&held_out_nrmse(&b.1)));
-    if let Some((f, cand)) = drift {
-        let mut params = BTreeMap::new();
-        let mut ci95 = BTreeMap::new();
-        if let Some(e) = cand.fit.estimate(f.name()).copied() {
-            params.insert(f.name().to_string(), e.value);
-            params.insert(format!("{}_nominal", f.name()), f.get(nominal));
-            ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+/// The fit with the lowest held-out error of several tries, or why none fitted.
+fn best_of<K>(tries: impl Iterator<Item = (K, Result<Candidate, String>)>) -> Result<(K, Candidate), String> {
+    let mut best: Option<(K, Candidate)> = None;
+    let mut errors = Vec::new();
+    for (k, fit) in tries {
+        match fit {
+            Ok(c) if best.as_ref().is_none_or(|b| held_out_nrmse(&c) < held_out_nrmse(&b.1)) => best = Some((k, c)),
+            Ok(_) => {}
+            Err(e) => errors.push(e),
         }
-        trials.push(("param_drift", Trial { cand, params, ci95, extra: 1, not_nested: false }));
     }
+    best.ok_or_else(|| format!("its fit failed: {}", errors.join("; ")))
+}
+
+/// The candidates other than the structure: each one's fit on top of `base_opts`, or why it
+/// could not be made.
+fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) -> Vec<(&'static str, Result<Trial, String>)> {
+    // param_drift: one "known" value freed (the best of L, C, Rc).
+    let drift = best_of([Free::L, Free::C, Free::Rc].into_iter().map(|f| (f, run(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() })))).and_then(|(f, cand)| {
+        let e = cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()))?;
+        let params = BTreeMap::from([(f.name().to_string(), e.value), (format!("{}_nominal", f.name()), f.get(nominal))]);
+        let ci95 = BTreeMap::from([(f.name().to_string(), [e.ci95.0, e.ci95.1])]);
+        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false })
+    });
     // switch_resistance: extra series resistance on top of RL (a fitted RL below the nominal is
     // not this effect: resistance is only ever added).
-    if let Some(cand) = run(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() })
-        && let Some(e) = cand.fit.estimate("RL").copied()
-        && e.value > nominal.rl
-    {
+    let resistance = run(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() }).map_err(|e| format!("its fit failed: {e}")).and_then(|cand| {
+        let e = cand.fit.estimate("RL").copied().ok_or("no estimate of RL")?;
+        if e.value <= nominal.rl {
+            return Err(format!("the fitted series resistance {:.4e} Ω is not above the nominal RL {:.4e} Ω: none is added", e.value, nominal.rl));
+        }
         let params = BTreeMap::from([("switch_resistance".to_string(), e.value - nominal.rl)]);
         let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);
-        trials.push(("switch_resistance", Trial { cand, params, ci95, extra: 1, not_nested: false }));
-    }
+        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false })
+    });
     // delay: the duty drives the switch 1 or 2 periods late.
-    let delay = (1..=2usize)
-        .filter_map(|n| run(&delayed(data, n), nominal, base_opts.clone()).map(|c| (n, c)))
-        .min_by(|a, b| held_out_nrmse(&a.1).total_cmp(&held_out_nrmse(&b.1)));
-    if let Some((n, cand)) = delay {
+    let delay = best_of((1..=2usize).map(|n| (n, run(&delayed(data, n), nominal, base_opts.clone())))).map(|(n, cand)| {
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
-        trials.push(("delay", Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true }));
-    }
-    trials
+        Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true }
+    });
+    vec![("param_drift", drift), ("switch_resistance", resistance), ("delay", delay)]
 }
 
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10

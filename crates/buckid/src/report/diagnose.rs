@@ -115,12 +115,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
                     (Some(s), None) => format!("{s:.1}"),
                     _ => "–".to_string(),
                 },
-                match (e.significant, e.identifiable) {
-                    (true, _) => "yes",
-                    (false, true) => "no",
-                    (false, false) => "no (not identifiable)",
-                }
-                .to_string(),
+                e.standing().to_string(),
             ]
         })
         .collect();
@@ -162,7 +157,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     page.figure("gap_windows", windows.render());
     page.figure("heldout", overlay.render());
     page.html("<h2>Effects, best held-out error first</h2>");
-    page.html(&table(&["effect", "parameters [CI95]", "Cl [µF] [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "significant"], &rows));
+    page.html(&table(&["effect", "parameters [CI95]", "Cl [µF] [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "standing"], &rows));
     if !not_tested.is_empty() {
         page.html(&format!("<h2>Not tested</h2><ul>{not_tested}</ul>"));
     }
