@@ -4,12 +4,12 @@
 //!
 //! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]`
 //!
-//! The FMU is `fmu/BuckConverter.fmu` (`cargo xtask fmu`; the same model in process when it is
-//! missing); ngspice datasets need `ngspice` on PATH and the `.venv` of `scripts/setup`.
+//! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
+//! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
     Outcome, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case,
-    plant_effects, repository_root, rng, score, spice_case,
+    plant_effects, rng, score, spice_case,
 };
 
 fn arg(name: &str) -> Option<String> {
@@ -38,10 +38,10 @@ fn main() {
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
     let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
     let fmu = bundled_fmu();
-    let spice = if std::env::args().any(|a| a == "--no-spice") { None } else { Spice::find(&repository_root()) };
+    let spice = if std::env::args().any(|a| a == "--no-spice") { None } else { Spice::find(&fmu_fixture::root()) };
     match &fmu {
         Some(p) => eprintln!("plant datasets from {}", p.display()),
-        None => eprintln!("fmu/BuckConverter.fmu not found (cargo xtask fmu): plant datasets from the same model in process"),
+        None => eprintln!("no fmu/BuckConverter.fmu (cargo xtask fmu failed): plant datasets from the same model in process"),
     }
     if spice.is_none() {
         eprintln!("ngspice or .venv missing (scripts/setup): no ngspice datasets");
@@ -83,6 +83,11 @@ fn main() {
     times.sort_by(f64::total_cmp);
     println!("| target | result |\n|---|---|");
     println!("| withheld effect named (≥ 90 %) | {} |", percent(s.named, s.effect_cases));
+    println!(
+        "| … of those whose effect leaves a gap above the measurement noise | {} ({} below the detection limit) |",
+        percent(s.detectable_named, s.detectable_cases),
+        s.effect_cases - s.detectable_cases
+    );
     println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
     println!(
         "| ≥ 70 % of the held-out gap above the measurement noise closed, of the named with a gap | {} ({} named had none above the noise) |",
@@ -134,6 +139,7 @@ fn main() {
         );
     }
     for o in outcomes.iter().filter(|o| o.verdict != o.truth.effect) {
-        println!("- {} {}: said {} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.verdict, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+        let limit = if o.detectable { "" } else { ", no gap above the noise" };
+        println!("- {} {}: said {}{limit} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.verdict, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
     }
 }

@@ -2,7 +2,7 @@
 //! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV] [--spice]`
 //! (CSV: also write the dataset there; `--spice`: the ngspice dataset of that index)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
-use blind::{Spice, bundled_fmu, draw, plant_case, repository_root, rng, spice_case};
+use blind::{Spice, bundled_fmu, draw, plant_case, rng, spice_case};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -11,7 +11,7 @@ fn main() {
     let truth = draw(effect, &mut rng(seed, index));
     println!("{truth:?}");
     let case = if args.iter().any(|a| a == "--spice") {
-        spice_case(truth, seed ^ index, &Spice::find(&repository_root()).expect("ngspice and .venv (scripts/setup)")).unwrap()
+        spice_case(truth, seed ^ index, &Spice::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)")).unwrap()
     } else {
         plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap()
     };

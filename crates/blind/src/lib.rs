@@ -255,15 +255,10 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     Ok(Case { data: blind(data), nominal, model, truth, source: "ngspice" })
 }
 
-/// The repository root (two levels above this crate).
-pub fn repository_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The FMU built by `cargo xtask fmu`, if it is there.
+/// The packaged FMU, rebuilt by `cargo xtask fmu` when missing or older than its sources
+/// (`None` when that fails: the datasets then come from the same model in process).
 pub fn bundled_fmu() -> Option<PathBuf> {
-    let path = repository_root().join("fmu/BuckConverter.fmu");
-    path.is_file().then_some(path)
+    fmu_fixture::buck_fmu().map(Path::to_path_buf).map_err(|e| eprintln!("{e}")).ok()
 }
 
 /// A seeded random stream for dataset `index` of a run with `seed`.
@@ -286,6 +281,10 @@ pub struct Outcome {
     /// ([`Truth::measurement_noise`]) that the verdict's effect closed [%]; `None` when the
     /// nominal model's gap is not above that noise ([`gap::closed_percent`]).
     pub closed_percent: Option<f64>,
+    /// The nominal model misses the data by more than the true measurement noise (the gap
+    /// power over the noise's is above [`gap::closed_percent`]'s threshold): the withheld
+    /// effect is detectable at all.
+    pub detectable: bool,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
     /// The verdict's Cl estimate and its CI95 [F].
@@ -310,6 +309,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         verdict: String::new(),
         shrink_percent: None,
         closed_percent: None,
+        detectable: false,
         noise_floor: None,
         cl: None,
         cl_in_ci95: None,
@@ -321,6 +321,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             let best = dx.effects.iter().find(|e| e.name == dx.verdict);
             outcome.verdict.clone_from(&dx.verdict);
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
+            outcome.detectable = gap::closed_percent(dx.gap_before.rms, 0.0, case.truth.measurement_noise()).is_some();
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
             outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));
@@ -339,6 +340,11 @@ pub struct Scores {
     pub effect_cases: usize,
     /// Of those, named correctly.
     pub named: usize,
+    /// Datasets withholding an effect that leaves a gap above the measurement noise (the
+    /// others are below the detection limit: `none` is the right answer the data allows).
+    pub detectable_cases: usize,
+    /// Of those, named correctly.
+    pub detectable_named: usize,
     /// Clean datasets, and how many got `none`.
     pub clean_cases: usize,
     /// Of those, `none`.
@@ -360,6 +366,8 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
     Scores {
         effect_cases: effect.len(),
         named: named.len(),
+        detectable_cases: effect.iter().filter(|o| o.detectable).count(),
+        detectable_named: named.iter().filter(|o| o.detectable).count(),
         clean_cases: clean.len(),
         none: clean.iter().filter(|o| o.verdict == "none").count(),
         with_gap: named.iter().filter(|o| o.closed_percent.is_some()).count(),

@@ -82,7 +82,8 @@ fn monte_carlo(plant: &mut dyn Plant, structure: Structure, truth: f64, runs: us
 
 fn main() {
     let runs: usize = arg("--runs").and_then(|s| s.parse().ok()).unwrap_or(500);
-    let fmu = arg("--fmu").map(PathBuf::from).unwrap_or_else(|| root().join("fmu/BuckConverter.fmu"));
+    // The packaged FMU, rebuilt when stale (its path even when that fails, for the message).
+    let fmu = arg("--fmu").map(PathBuf::from).unwrap_or_else(|| fmu_fixture::buck_fmu().map_or_else(|_| fmu_fixture::root().join("fmu/BuckConverter.fmu"), PathBuf::from));
     let start = Instant::now();
 
     println!("## 1. Averaged plant, averaged model, vout + il (σ = 2 mV, 20 mA), 3001 samples, {runs} Monte Carlo runs\n");
@@ -144,18 +145,14 @@ fn main() {
         );
     }
     println!("\n## 3. Third-party FMUs with a hidden Cl (averaged model, σ = 2 mV / 20 mA, seed 1)\n");
-    third_party(&root());
+    third_party(&fmu_fixture::root());
     println!("\n## 4. The thesis (Osman & Osman, BTH 2011), for comparison\n");
-    let thesis = root().join("docs/thesis-figures.md");
+    let thesis = fmu_fixture::root().join("docs/thesis-figures.md");
     match std::fs::read_to_string(&thesis) {
         Ok(text) => println!("See {} — its tables:\n\n{}", thesis.display(), thesis_tables(&text)),
         Err(_) => println!("(docs/thesis-figures.md not found)"),
     }
     eprintln!("accuracy bench took {:.1} s", start.elapsed().as_secs_f64());
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 /// The pythonfmu and qfmu buck FMUs of `tests/thirdparty` (built by its `build.sh`), with the
