@@ -248,4 +248,10 @@ fn identify_and_diagnose_the_ngspice_fixture() {
     assert!(judged["shrink_percent"].as_f64().unwrap() > 90.0, "{judged}");
     let cl = judged["cl"]["estimate"].as_f64().unwrap();
     assert!((cl - truth).abs() < 1e-3 * truth, "verdict's Cl {cl} vs truth {truth}");
+    // The interval's test is reported, made or not (noise-free data can leave the high-pass
+    // refit's information singular), in the JSON and on stdout.
+    let cl_json = &judged["cl"];
+    assert!(cl_json["check"].is_object() || cl_json["check_skipped"].is_string(), "{cl_json}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.lines().any(|l| l.starts_with("Cl ") && l.contains("CI95")), "{stdout}");
 }
