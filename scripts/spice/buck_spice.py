@@ -104,6 +104,16 @@ DIODE_DEFAULTS = dict(Is=5e-6, N=1.1, Rs=25e-3, Cjo=300e-12, Vj=0.4, M=0.5)
 # period-start il carries up to ~50 mA of it.  Costs ~Csn*U^2*fs = 22 mW.
 # None or (0, 0) leaves it out.
 SNUBBER_DEFAULT = (47.0, 470e-12)
+# inductor_saturation: the step in L at isat is found by the truncation-error control only.
+# Ideal circuit: trtol 0.1 (ngspice's default is 7) resolves it to < 0.1 mV in vout and
+# < 0.4 mA in il against the plant's exact crossings (tests/python/test_ngspice.py; 1.5 mV and
+# 8 mA at the default).  The synchronous buck aborts with trtol <= 1 ("timestep too small" at
+# the gate drive), so the real circuits keep their own; the crossings are then resolved to
+# first order in the step, and they take T/400 (sync at T/100 was off by 11 mV in vout_avg and
+# 48 mA in il_avg against T/1600; at T/400, sync and async: <= 2 mV, <= 10 mA; 300 PRBS
+# periods, io = 2 A, isat = 2.3 A, 30 %).
+SATURATION_TRTOL = 0.1
+SATURATION_REAL_STEPS_PER_PERIOD = 400
 
 
 def prbs_duty(n_periods, bit_periods=8, low=0.4, high=0.6, seed=1):
@@ -488,25 +498,84 @@ def _run_ngspice(netlist, workdir, n, T):
     return vec
 
 
-def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0):
-    """The output capacitors: C with its ESR Rc (and ESL) to node vc, Cl (with its ESR) at out."""
+# inductor_saturation and cap_dc_bias: an incremental L(il) and Cl(v) (v = L(il)*dil/dt,
+# i = Cl(v)*dv/dt), as in the plant.
+#
+# The inductor has the structure ngspice-39 gives `L1 sw nl L='expr'`, written out: a linear
+# inductor carrying il (a CCCS copies i(Vam) into it) whose voltage a B source scales by
+# L(il)/L.  Written out because that expansion drops IC= (the runs start from a state, uic);
+# scaled to L instead of ngspice's 1 H so that its node is in volts.  The step at isat is taken as it is, no
+# smoothing (a tanh of width 0.2 % of isat made the synchronous buck abort): see SATURATION_TRTOL.
+#
+# The capacitor is the linear Cl (unchanged, with its IC) in parallel with the charge it loses,
+# Cl*dc_bias*g(v) with g'(v) = min((v/rated_voltage)^2, 1): a B source holds g(v) on a
+# capacitor of Cl*dc_bias and a CCCS returns that capacitor's current to the node, so
+# i = Cl*(1 - dc_bias*g'(v))*dv/dt = Cl(v)*dv/dt.  Not ngspice's `C='expr'` (a B source
+# i = Cl(v) times the current of a 1 F copy of v), nor Q(v) on a 1 F capacitor: from the DC
+# start (dv/dt = 0) ngspice-39 then creeps on at ~1e-19 s steps or aborts ("timestep too
+# small") for some Cl, io and rated voltages; with the linear part carrying most of the
+# current it ran every case tried (Cl 1-100 uF, io 0.5-3 A, dc_bias 0.3-0.6, rated 6.3-16 V;
+# all three circuits).
+
+
+def _inductor(L, il0, saturation, isat, trtol=None):
+    """The inductor sw -> nl carrying il = i(Vam); with `saturation` > 0 its incremental
+    inductance is L*(1 - saturation) while |il| > isat (`trtol`: the transient's, if given)."""
+    if saturation == 0:
+        return f"L1    sw  nl   {_num(L)}  IC={_num(il0)}"
+    lines = [
+        "FL1   0   l1i  Vam 1",
+        f"LL1   l1i 0    {_num(L)}  IC={_num(il0)}",
+        f"BL1   sw  nl   V = v(l1i)*(abs(i(Vam)) > {_num(isat)} ? {_num(1 - saturation)} : 1)",
+    ]
+    if trtol is not None:
+        lines.append(f".options trtol={_num(trtol)}")
+    return "\n".join(lines)
+
+
+def _load_capacitor(node, Cl, vo0, dc_bias, rated_voltage):
+    """Cl from `node` to ground; with `dc_bias` > 0 its incremental capacitance is
+    Cl*(1 - dc_bias*min((v/rated_voltage)^2, 1)), v = v(node) the voltage across Cl itself."""
+    if dc_bias == 0:
+        return f"Cl1   {node} 0    {_num(Cl)} IC={_num(vo0)}"
+
+    v = f"v({node})"
+    vc = f"max(min({v}, {_num(rated_voltage)}), {_num(-rated_voltage)})"
+    vc0 = max(min(vo0, rated_voltage), -rated_voltage)
+    # g(v) [V]: the lost charge over Cl*dc_bias, g'(v) = min((v/rated_voltage)^2, 1).
+    g = f"{v} - {vc} + {vc}*{vc}*{vc}/{_num(3 * rated_voltage ** 2)}"
+    g0 = vo0 - vc0 + vc0 ** 3 / (3 * rated_voltage ** 2)
+    return "\n".join([
+        f"Cl1   {node} 0    {_num(Cl)} IC={_num(vo0)}",
+        f"BCl1  gcl 0    V = {g}",
+        f"CCl1  gcl ngcl {_num(Cl * dc_bias)} IC={_num(g0)}",
+        "VCl1  ngcl 0   0",
+        f"FCl1  0   {node} VCl1 1",
+    ])
+
+
+def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias=0.0, cap_rated_voltage=16.0):
+    """The output capacitors: C with its ESR Rc (and ESL) to node vc, Cl (with its ESR and its
+    DC-bias loss) at out."""
     lines = []
     if esl > 0:
         lines += [f"Rc1   out nrc  {_num(Rc)}", f"Lc    nrc vc   {_num(esl)} IC=0"]
     else:
         lines.append(f"Rc1   out vc   {_num(Rc)}")
     lines.append(f"C1    vc  0    {_num(C)}  IC={_num(vc0)}")
+    node = "out"
     if load_esr > 0:
-        lines += [f"Rcl   out ncl  {_num(load_esr)}", f"Cl1   ncl 0    {_num(Cl)} IC={_num(vo0)}"]
-    else:
-        lines.append(f"Cl1   out 0    {_num(Cl)} IC={_num(vo0)}")
+        lines.append(f"Rcl   out ncl  {_num(load_esr)}")
+        node = "ncl"
+    lines.append(_load_capacitor(node, Cl, vo0, cap_dc_bias, cap_rated_voltage))
     return "\n".join(lines)
 
 
 def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=12.0,
              io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12, circuit="ideal",
              dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
-             diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0):
+             diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0,
+             inductor_saturation=0.0, isat=10.0, cap_dc_bias=0.0, cap_rated_voltage=16.0):
     """Simulate a buck converter in ngspice for len(duty) periods.
 
     duty: per-period duty d_k in [0, 1].  circuit: "ideal" (ideal switch
@@ -518,13 +587,17 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     warmup: periods simulated at duty[0] before the sequence and dropped
     (time 0 of the result is the end of the warm-up).
     workdir: keep netlist/raw/log there (default: a temporary directory).
-    max_step: ngspice max time step (default T/100; async T/400, see
-    REAL_SOLVER_OPTIONS).  edge: ideal switch edge
-    width (keep it well above 5e-5*max_step, ngspice's minimum breakpoint
-    spacing).
+    max_step: ngspice max time step (default T/100; async, and sync with
+    inductor_saturation, T/400, see REAL_SOLVER_OPTIONS and SATURATION_TRTOL).
+    edge: ideal switch edge width (keep it well above 5e-5*max_step, ngspice's
+    minimum breakpoint spacing).
 
     load_esr: series resistance of Cl; esl: series inductance of the C branch
-    (any circuit; 0 leaves the element out).
+    (any circuit; 0 leaves the element out).  inductor_saturation: fraction of L
+    lost while |il| > isat; cap_dc_bias: fraction of Cl lost at cap_rated_voltage,
+    Cl(v) = Cl*(1 - cap_dc_bias*min((v/cap_rated_voltage)^2, 1)) with v across Cl
+    itself; both incremental, as in the plant's Params (any circuit; 0 leaves the
+    linear element).
 
     Real circuits only: dead_time (sync: both gates off before each turn-on),
     rds_on (MOSFET on-resistance at Vgs = v_drive, see mosfet_params),
@@ -548,6 +621,10 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         raise ValueError("warmup must be >= 0")
     if min(L, C, Rc, Cl, fs, edge) <= 0 or min(RL, load_esr, esl) < 0:
         raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL, load_esr, esl >= 0")
+    if not (0 <= inductor_saturation < 1 and isat > 0):
+        raise ValueError("inductor_saturation must be in [0, 1) and isat > 0")
+    if not (0 <= cap_dc_bias < 1 and cap_rated_voltage > 0):
+        raise ValueError("cap_dc_bias must be in [0, 1) and cap_rated_voltage > 0")
     n_out = len(duty)
     if warmup:
         duty = np.concatenate((np.full(warmup, duty[0]), duty))
@@ -555,7 +632,10 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     T = 1.0 / fs
     real = circuit != "ideal"
     if max_step is None:
-        max_step = T / (REAL_STEPS_PER_PERIOD[circuit] if real else DEFAULT_STEPS_PER_PERIOD)
+        steps = REAL_STEPS_PER_PERIOD[circuit] if real else DEFAULT_STEPS_PER_PERIOD
+        if real and inductor_saturation:
+            steps = max(steps, SATURATION_REAL_STEPS_PER_PERIOD)
+        max_step = T / steps
     vsw0 = 0.0
     if x0 is None:
         if real:
@@ -572,8 +652,12 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
 
     with open(TEMPLATES[circuit]) as f:
         template = string.Template(f.read())
-    common = dict(L=_num(L), RL=_num(RL), io=_num(io),
-                  output_network=_output_network(C, Rc, Cl, load_esr, esl, vc0, vo0), il0=_num(il0),
+    # trtol: tighter truncation-error control finds the saturation crossings (ideal circuit;
+    # the synchronous one aborts with "timestep too small" at its gate drive, see _inductor).
+    inductor = _inductor(L, il0, inductor_saturation, isat, None if real else SATURATION_TRTOL)
+    common = dict(inductor=inductor, RL=_num(RL), io=_num(io),
+                  output_network=_output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias,
+                                                 cap_rated_voltage),
                   max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw")
     if not real:
         netlist = template.substitute(
@@ -693,6 +777,13 @@ def main(argv=None):
     p.add_argument("--U", type=float, default=12.0)
     p.add_argument("--load-esr", type=float, default=0.0, help="series resistance of Cl [ohm]")
     p.add_argument("--esl", type=float, default=0.0, help="series inductance of the C branch [H]")
+    p.add_argument("--inductor-saturation", type=float, default=0.0,
+                   help="fraction of L lost while |il| > isat")
+    p.add_argument("--isat", type=float, default=10.0,
+                   help="saturation current of the inductor [A] (the plant's default)")
+    p.add_argument("--cap-dc-bias", type=float, default=0.0,
+                   help="fraction of Cl lost at the rated voltage (quadratic in the voltage)")
+    p.add_argument("--cap-rated-voltage", type=float, default=16.0, help="rated voltage of Cl [V]")
     p.add_argument("--dead-time", type=float, default=30e-9, help="sync only [s]")
     p.add_argument("--rds-on", type=float, default=10e-3, help="MOSFET on-resistance [ohm]")
     p.add_argument("--gate-rise", type=float, default=5e-9, help="gate ramp width [s]")
@@ -711,7 +802,9 @@ def main(argv=None):
     real = dict(dead_time=a.dead_time, rds_on=a.rds_on, gate_rise=a.gate_rise)
     t0 = _time.perf_counter()
     r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit,
-                 warmup=a.warmup, load_esr=a.load_esr, esl=a.esl, **real, **params)
+                 warmup=a.warmup, load_esr=a.load_esr, esl=a.esl,
+                 inductor_saturation=a.inductor_saturation, isat=a.isat, cap_dc_bias=a.cap_dc_bias,
+                 cap_rated_voltage=a.cap_rated_voltage, **real, **params)
     if a.time:
         print(f"wall time (ngspice + parsing): {_time.perf_counter() - t0:.3f} s "
               f"for {len(duty)} + {a.warmup} warm-up periods ({a.circuit})", file=sys.stderr)

@@ -78,7 +78,18 @@ pub fn plant_effects() -> impl Iterator<Item = &'static str> {
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).
-pub const SPICE_EFFECTS: [&str; 8] = ["none", "switching_ripple", "switch_resistance", "param_drift", "diode_drop", "dead_time", "load_esr", "esl"];
+pub const SPICE_EFFECTS: [&str; 10] = [
+    "none",
+    "switching_ripple",
+    "switch_resistance",
+    "param_drift",
+    "diode_drop",
+    "dead_time",
+    "load_esr",
+    "esl",
+    "inductor_saturation",
+    "cap_dc_bias",
+];
 
 fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     rng.random_range(lo..hi)
@@ -199,7 +210,9 @@ impl Spice {
 
 /// A dataset from an ngspice netlist: `none`/`switching_ripple` from the ideal-switch circuit,
 /// `switch_resistance` and `param_drift` from it with RL, L, C or Rc changed, `load_esr` and
-/// `esl` from it with a resistor in series with Cl or an inductor in series with C, `diode_drop` from
+/// `esl` from it with a resistor in series with Cl or an inductor in series with C,
+/// `inductor_saturation` and `cap_dc_bias` from it with a behavioural inductor (L·(1 − s) above
+/// isat) or load capacitor (Cl·(1 − b·min((v/16 V)², 1))), `diode_drop` from
 /// the asynchronous Schottky buck and `dead_time` from the synchronous MOSFET buck (both with
 /// near-ideal 1 mΩ switches, so that the diode or the dead time is the one effect).
 pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, EstimatorError> {
@@ -233,6 +246,9 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
             "L" | "C" | "Rc" => args.extend([format!("--{name}"), format!("{value:e}")]),
             "load_esr" => args.extend(["--load-esr".into(), format!("{value:e}")]),
             "esl" => args.extend(["--esl".into(), format!("{value:e}")]),
+            "inductor_saturation" => args.extend(["--inductor-saturation".into(), format!("{value:e}")]),
+            "isat" => args.extend(["--isat".into(), format!("{value:e}")]),
+            "cap_dc_bias" => args.extend(["--cap-dc-bias".into(), format!("{value:e}")]),
             // The Schottky's drop is the device's own; the drawn value is not used.
             "diode_drop" => {}
             other => return Err(EstimatorError::Config(format!("ngspice datasets cannot withhold `{other}`"))),
