@@ -174,6 +174,9 @@ pub struct Converter {
     pwm_high_before: bool,
     /// Load capacitance in force during the current period (`cap_dc_bias`) [F].
     cl_now: f64,
+    /// Voltage across Cl at the previous period start, for the mid-period extrapolation of
+    /// `cl_now` (`None` right after a state was set).
+    vcl_last_start: Option<f64>,
     /// The inductor current stopped at zero with both switches off (DCM) until the next turn-on.
     blocked: bool,
     /// `vout = cx·x + d·io` ([`Params::vout_map`], kept at hand: outputs are read every step).
@@ -217,6 +220,7 @@ impl Converter {
             latched_duty: 0.0,
             pwm_high_before: false,
             cl_now: params.cl,
+            vcl_last_start: None,
             vout_map: params.vout_map(),
             blocked: false,
             sat_region: 0,
@@ -310,6 +314,7 @@ impl Converter {
         self.blocked = false;
         self.sat_region = 0;
         self.cl_now = self.params.cl_at(s.vo);
+        self.vcl_last_start = None;
         self.last_average = self.x;
         self.last_io_average = self.io_held;
     }
@@ -505,8 +510,9 @@ impl Converter {
             if self.at_period_start {
                 let Inputs { duty, dither, vref, .. } = self.inputs;
                 self.latched_duty = self.digital.latch(duty, dither, vref);
-                // cap_dc_bias, quasi-static: Cl follows the voltage across it once per period.
-                self.cl_now = self.params.cl_at(self.x[2]);
+                // cap_dc_bias: Cl held over the period at its mid-period value.
+                self.cl_now = self.params.cl_for_period(self.x[2], self.vcl_last_start);
+                self.vcl_last_start = Some(self.x[2]);
                 self.at_period_start = false;
             }
             let (gate, event) = self.gate(period);

@@ -173,6 +173,8 @@ struct Reference {
     x: [f64; 5],
     saturated: bool,
     cl: f64,
+    /// `vcl` at the last period start ([`Params::cl_for_period`]).
+    vcl_last: Option<f64>,
 }
 
 impl Reference {
@@ -245,7 +247,8 @@ impl Reference {
     }
 
     fn period(&mut self, d: f64, h: f64) {
-        self.cl = self.p.cl_at(self.x[2]);
+        self.cl = self.p.cl_for_period(self.x[2], self.vcl_last);
+        self.vcl_last = Some(self.x[2]);
         self.x[4] = 0.0;
         self.interval(d * T, 12.0, h);
         self.interval(T - d * T, 0.0, h);
@@ -261,7 +264,7 @@ fn compare_with_reference(p: Params, io: f64, what: &str) {
     let s0 = State { il: io + 0.7, vc: 5.7, vo: 5.8, ic: 0.3 };
     conv.set_state(s0);
     let s = conv.state();
-    let mut r = Reference { p, io, x: [s.il, s.vc, s.vo, s.ic, 0.0], saturated: s.il.abs() > p.isat, cl: p.cl };
+    let mut r = Reference { p, io, x: [s.il, s.vc, s.vo, s.ic, 0.0], saturated: s.il.abs() > p.isat, cl: p.cl, vcl_last: None };
     let close = |a: f64, b: f64, name: &str, k: usize| {
         assert!((a - b).abs() <= 1e-6 * (b.abs() + 1.0), "{what}, period {k}: {name} {a} vs reference {b}");
     };
@@ -308,7 +311,7 @@ fn cap_dc_bias_matches_fine_integration() {
 /// the exponential to 1e-16·T. It assumes no two crossings within T/32 (instead of the engine's
 /// at most one extremum per piece). Synchronous buck without dead time, or asynchronous
 /// (`diode_drop`); the saturation region toggles at each `|il| = isat` crossing; `Cl` follows
-/// `cap_dc_bias` at each period start.
+/// `cap_dc_bias` at each period start ([`Params::cl_for_period`]).
 struct EventReference {
     p: Params,
     io: f64,
@@ -317,6 +320,8 @@ struct EventReference {
     /// Integral of `x` over the current period.
     z: DVector<f64>,
     cl: f64,
+    /// `vcl` at the last period start ([`Params::cl_for_period`]).
+    vcl_last: Option<f64>,
     saturated: bool,
     blocked: bool,
     /// Events so far: `|il| = isat` crossings, diode turn-offs.
@@ -391,7 +396,8 @@ impl EventReference {
     }
 
     fn period(&mut self, d: f64) {
-        self.cl = self.p.cl_at(self.x[2]);
+        self.cl = self.p.cl_for_period(self.x[2], self.vcl_last);
+        self.vcl_last = Some(self.x[2]);
         self.z = DVector::zeros(3);
         self.interval(d * T, true);
         self.interval(T - d * T, false);
@@ -413,6 +419,7 @@ fn compare_events(p: Params, what: &str, events: [usize; 2]) {
         x: DVector::from_row_slice(&[s.il, s.vc, s.vo]),
         z: DVector::zeros(3),
         cl: p.cl,
+        vcl_last: None,
         saturated: s.il.abs() > p.isat && p.inductor_saturation > 0.0,
         blocked: false,
         events: [0, 0],

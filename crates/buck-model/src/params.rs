@@ -115,6 +115,15 @@ impl Params {
         self.cl * (1.0 - self.cap_dc_bias * r)
     }
 
+    /// Load capacitance held over a period under `cap_dc_bias` [F]: its value for the
+    /// mid-period voltage across Cl, extrapolated from this period start's `v` and the last
+    /// one's `last` (the midpoint rule in v; `v` itself without a last start). Over the LC
+    /// transients after a duty step, holding the start value missed a continuous Cl(v) by
+    /// 0.5 mV at 16 V rated; the extrapolation misses only in the first period after a step.
+    pub fn cl_for_period(&self, v: f64, last: Option<f64>) -> f64 {
+        self.cl_at(last.map_or(v, |last| v + 0.5 * (v - last)))
+    }
+
     /// Number of circuit states: 3 (`[il, vc, vcl]`), or 4 with the branch current of `C`
     /// when `esl > 0`.
     pub fn states(&self) -> usize {
