@@ -31,7 +31,7 @@ fn main() {
     for e in &dx.effects {
         println!(
             "{:20} nrmse {:.5} rms {:.3} mV shrink {:6.1} aic {:10.1} dAIC {:8.1} LR {:?} sig {} Cl {:.4} [{:.4}, {:.4}] {:?} {:?}",
-            e.name, e.nrmse_after, e.rms_after * 1e3, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, e.params, e.ci95
+            e.name, e.nrmse_after, e.rms_after * 1e3, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, (e.params.clone(), e.ruled_out_above), e.ci95
         );
     }
     for n in &dx.not_tested {

@@ -112,7 +112,10 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     );
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
-        let params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
+        let mut params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
+        if let Some(hi) = e.ruled_out_above {
+            params.push(format!("ruled out above {hi:.3e} (95 %)"));
+        }
         println!(
             "effect      {:18} NRMSE {:.4} ({:+6.1} %)  closes {} of the gap over the floor  {}  Cl {:.4} µF  {}",
             e.name,

@@ -114,6 +114,11 @@ pub struct EffectFit {
     /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change),
     /// identifiable and better on the held-out data.
     pub significant: bool,
+    /// For an effect that is not significant and is linear at zero (`dead_time`, `load_esr`,
+    /// `esl`, `cap_dc_bias`): the one-sided 95 % upper limit of its magnitude, how large it
+    /// could be and still hide in this data (see `limits`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ruled_out_above: Option<f64>,
     /// Held-out simulation residual (for the noise floor).
     #[serde(skip)]
     pub residual: Vec<f64>,
@@ -293,7 +298,11 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         // state treatment), and placed on the others' AIC scale through the model it extends.
         let cl = switched_base.fit.estimate("Cl").map_or(nominal.cl, |e| e.value);
         let start = Params { cl, ..*nominal };
-        let (reference, trials) = rayon::join(|| estimator::simulated::fit(data, &start, &[Free::Cl], n_est), || simulated_trials(data, &start, n_est));
+        let sigma = baseline.floor.unwrap_or_else(|| switched_base.fit.sigma[0]);
+        let (reference, (trials, limits)) = rayon::join(
+            || estimator::simulated::fit(data, &start, &[Free::Cl], n_est),
+            || rayon::join(|| simulated_trials(data, &start, n_est), || crate::limits::upper_limits(data, &start, sigma, n_est)),
+        );
         // Where the simulator with Cl alone cannot fit the data (e.g. DCM data, which no
         // diode-free circuit follows), the effects are judged against the model they extend,
         // by Akaike's criterion (not nested in it).
@@ -310,6 +319,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
                     trial.not_nested |= not_nested;
                     let mut fit = judge(name, trial, reference).0;
                     fit.aic += offset;
+                    fit.ruled_out_above = limits.get(name).copied().filter(|_| !fit.significant);
                     fits.push(fit);
                 }
                 Err(e) => failed.push(NotTested { name, reason: format!("its fit failed: {e}") }),
@@ -470,6 +480,7 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
         lr_limit,
         identifiable,
         significant: passes && identifiable && nrmse_after < nrmse_against,
+        ruled_out_above: None,
         residual,
     };
     (fit, t.cand)

@@ -10,6 +10,7 @@
 
 mod candidates;
 mod consistency;
+mod limits;
 mod locate;
 mod noise;
 mod quantization;

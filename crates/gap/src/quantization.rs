@@ -97,6 +97,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         lr_limit: None,
         identifiable: true,
         significant: true,
+        ruled_out_above: None,
         residual,
     })
 }

@@ -135,3 +135,24 @@ fn large_diode_drop_in_deep_dcm_is_found() {
     assert!(lo <= cl && cl <= hi, "Cl {:e} outside [{lo:e}, {hi:e}]", fit.cl.estimate);
     assert!((fit.params["diode_drop"] - 0.77).abs() < 0.01, "{:?}", fit.params);
 }
+
+/// On clean data each effect that is linear at zero gets the size above which it would have
+/// shown: an ESL or a dead time of three times that limit is then found, one of a third is not.
+#[test]
+fn effects_not_found_are_bounded_and_the_bound_is_a_detection_limit() {
+    let switched = DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() };
+    let clean = data(plant(Params { cl: CL, ..Params::default() }, Mode::Switched));
+    let dx = diagnose(&clean, &Params::default(), &switched).unwrap();
+    assert_eq!(dx.verdict, "none");
+    for (name, var, range) in [("esl", VarId::Esl, 5e-9), ("dead_time", VarId::DeadTime, 50e-9)] {
+        let fit = dx.effects.iter().find(|e| e.name == name).unwrap();
+        let limit = fit.ruled_out_above.unwrap_or_else(|| panic!("{name}: no limit"));
+        assert!(limit > 0.0 && limit < range, "{name} limit {limit:e}");
+        for (factor, expected) in [(3.0, name), (1.0 / 3.0, "none")] {
+            let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+            c.set(var, factor * limit).unwrap();
+            let dx = diagnose(&data(c), &Params::default(), &switched).unwrap();
+            assert_eq!(dx.verdict, expected, "{name} of {:e}, {factor} times the limit {limit:e}", factor * limit);
+        }
+    }
+}
