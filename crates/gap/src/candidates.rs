@@ -225,6 +225,17 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candid
     identify(data, nominal, &opts).map(|id| id.best().clone()).map_err(|e| e.to_string())
 }
 
+/// What [`fit_all`] found.
+pub(crate) struct Fitted {
+    /// Every candidate that was fitted.
+    pub effects: Vec<EffectFit>,
+    /// The others, with the reason.
+    pub not_tested: Vec<NotTested>,
+    /// The data is switched (the ripple significant, or in the nominal model): the plant
+    /// simulator can fit it.
+    pub switched: bool,
+}
+
 /// Fits every modelled candidate; those whose fit fails (e.g. not identifiable) are returned as
 /// not tested, with the reason.
 ///
@@ -238,7 +249,7 @@ fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candid
 /// (`estimator::simulated`: nonlinear, exact through DCM and every state event) and
 /// `[Cl, effect]` free, judged against the simulator with Cl alone. `adc_quantization` is
 /// detected in the readings (see `quantization`).
-pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, baseline: &Baseline, n_est: usize) -> (Vec<EffectFit>, Vec<NotTested>) {
+pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, baseline: &Baseline, n_est: usize) -> Fitted {
     let nominal_opts = nominal_options(opts);
     let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, baseline);
 
@@ -336,7 +347,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
     out.extend(ripple.map(|r| r.0));
     out.extend(extra);
-    (out, not_tested)
+    Fitted { effects: out, not_tested, switched }
 }
 
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,

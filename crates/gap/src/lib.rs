@@ -95,6 +95,9 @@ pub struct Before {
     /// The test of the interval when the verdict is `none`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_check: Option<ClCheck>,
+    /// Why it was not made, when the verdict is `none`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_check_skipped: Option<String>,
 }
 
 /// Result of [`diagnose`].
@@ -124,9 +127,9 @@ impl Diagnosis {
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
         let (cl, ci95, check, skipped) = match self.effects.iter().find(|e| e.name == self.verdict) {
             Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref()),
-            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), None),
+            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref()),
         };
-        let test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or("no switched data")), ToString::to_string);
+        let test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
         (cl, ci95, test)
     }
 }
@@ -161,7 +164,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         floor: noise::noise_floor(data),
     };
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
-    let (mut effects, not_tested) = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
+    let candidates::Fitted { mut effects, not_tested, switched } = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
     // The significant effect with the lowest Akaike criterion: an effect on top of the
     // ripple-exact model beats the ripple alone only by explaining more, and of two nested
@@ -172,26 +175,23 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         .min_by(|a, b| a.aic.total_cmp(&b.aic))
         .map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
-    // the test refits with the switched plant simulator).
-    let switched = opts.nominal == Nominal::Switched || effects.iter().any(|e| e.name == "switching_ripple" && e.significant);
-    let base_cl = base.fit.estimate("Cl").map(|e| [e.ci95.0, e.ci95.1]).unwrap_or([f64::NAN; 2]);
-    let mut before_check = None;
+    // the test refits with the switched plant simulator): the interval to report, the test, or
+    // why it was not made.
     let test = |effect: Option<&EffectFit>, cl: f64, ci95: [f64; 2]| {
-        if switched { consistency::check(data, nominal, effect, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) }
-    };
-    if let Some(i) = effects.iter().position(|e| e.name == verdict) {
-        let e = &effects[i];
-        let result = test(Some(e), e.cl.estimate, e.cl.ci95);
-        let cl = &mut effects[i].cl;
+        let result = if switched { consistency::check(data, nominal, effect, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) };
         match result {
-            Ok(check) => {
-                cl.ci95 = check.ci95();
-                cl.check = Some(check);
-            }
-            Err(reason) => cl.check_skipped = Some(reason),
+            Ok(check) => (check.ci95(), Some(check), None),
+            Err(reason) => (ci95, None, Some(reason)),
         }
+    };
+    let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
+    let (mut cl_ci95, mut cl_check, mut cl_check_skipped) = (base_cl, None, None);
+    if let Some(i) = effects.iter().position(|e| e.name == verdict) {
+        let tested = test(Some(&effects[i]), effects[i].cl.estimate, effects[i].cl.ci95);
+        let cl = &mut effects[i].cl;
+        (cl.ci95, cl.check, cl.check_skipped) = tested;
     } else {
-        before_check = test(None, baseline.cl, base_cl).ok();
+        (cl_ci95, cl_check, cl_check_skipped) = test(None, baseline.cl, base_cl);
     }
     // The noise floor from the data alone; where the inputs step too often for that, what the
     // best significant model leaves (else the nominal residual).
@@ -212,8 +212,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             nrmse: baseline.nrmse,
             rms: baseline.rms,
             cl: baseline.cl,
-            cl_ci95: before_check.as_ref().map_or(base_cl, ClCheck::ci95),
-            cl_check: before_check,
+            cl_ci95,
+            cl_check,
+            cl_check_skipped,
         },
         location,
         effects,
