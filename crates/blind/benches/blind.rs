@@ -122,7 +122,7 @@ fn main() {
         let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
         println!("- {} {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
     }
-    for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && o.cl_in_ci95 == Some(false)) {
+    for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
             "- {} {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",

@@ -305,12 +305,17 @@ pub struct Outcome {
     pub noise_floor: Option<f64>,
     /// The verdict's Cl estimate and its CI95 [F].
     pub cl: Option<(f64, [f64; 2])>,
-    /// Whether the true Cl lies in the verdict's CI95.
-    pub cl_in_ci95: Option<bool>,
     /// The test of the verdict's Cl interval (see [`gap::ClCheck`]).
     pub cl_check: Option<gap::ClCheck>,
     /// Wall time of the diagnosis [s].
     pub seconds: f64,
+}
+
+impl Outcome {
+    /// Whether the true Cl lies in the verdict's CI95 (`None` without a verdict's Cl).
+    pub fn cl_in_ci95(&self) -> Option<bool> {
+        self.cl.map(|(_, [lo, hi])| lo <= self.truth.cl && self.truth.cl <= hi)
+    }
 }
 
 /// Diagnoses `case` as a user would (data, nominal values, model; nothing else) and scores it.
@@ -328,7 +333,6 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         detectable: false,
         noise_floor: None,
         cl: None,
-        cl_in_ci95: None,
         cl_check: None,
         seconds,
     };
@@ -342,7 +346,6 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
             outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));
             outcome.cl_check = best.and_then(|e| e.cl.check.clone());
-            outcome.cl_in_ci95 = best.map(|e| e.cl.ci95[0] <= case.truth.cl && case.truth.cl <= e.cl.ci95[1]);
         }
         Err(e) => outcome.verdict = format!("error: {e}"),
     }
@@ -388,7 +391,7 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         none: clean.iter().filter(|o| o.verdict == "none").count(),
         with_gap: named.iter().filter(|o| o.closed_percent.is_some()).count(),
         closed_70: named.iter().filter(|o| o.closed_percent.is_some_and(|s| s >= 70.0)).count(),
-        cl_covered: named.iter().filter(|o| o.cl_in_ci95 == Some(true)).count(),
+        cl_covered: named.iter().filter(|o| o.cl_in_ci95() == Some(true)).count(),
     }
 }
 

@@ -16,6 +16,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::EstimatorError;
 use crate::model::{Free, Level, Model};
+use crate::validate::Z_975;
 
 /// Disturbance model of the predictor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -452,7 +453,7 @@ pub(crate) fn log_estimates(free: &[Free], logs: &[f64], covariance: &DMatrix<f6
             Estimate {
                 name: f.name(),
                 value: logs[i].exp(),
-                ci95: ((logs[i] - 1.959_964 * sd).exp(), (logs[i] + 1.959_964 * sd).exp()),
+                ci95: ((logs[i] - Z_975 * sd).exp(), (logs[i] + Z_975 * sd).exp()),
                 rel_std: sd,
             }
         })

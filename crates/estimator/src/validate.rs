@@ -7,6 +7,10 @@ pub const LAGS: usize = 25;
 const Z_995: f64 = 2.575_829;
 /// Standard normal 99 % quantile, for the one-sided chi-square approximation.
 const Z_99: f64 = 2.326_348;
+/// Standard normal 97.5 % quantile: the half-width of a two-sided 95 % interval in σ.
+pub const Z_975: f64 = 1.959_964;
+/// Standard normal 95 % quantile: a one-sided 95 % bound in σ.
+pub const Z_95: f64 = 1.644_854;
 
 /// `100·(1 − ‖y − ŷ‖/‖y − ȳ‖)`: 100 % is a perfect fit, 0 % no better than the mean.
 pub fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {

@@ -19,7 +19,7 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::model::Free;
 use estimator::simulated::{Criterion, fit_with};
-use estimator::validate::chi2_99;
+use estimator::validate::{Z_975, chi2_99};
 use serde::Serialize;
 
 use crate::candidates::{EffectFit, SIMULATED_EFFECTS, delayed};
@@ -75,7 +75,7 @@ impl std::fmt::Display for ClCheck {
 
 /// Standard deviation of `ln Cl` from a CI95 of the log-normal approximation.
 fn log_sd([lo, hi]: [f64; 2]) -> f64 {
-    (hi.ln() - lo.ln()) / (2.0 * 1.959_964)
+    (hi.ln() - lo.ln()) / (2.0 * Z_975)
 }
 
 /// How the plant simulator expresses a final model: circuit values to start from, the free
