@@ -297,9 +297,8 @@ pub struct Outcome {
     /// ([`Truth::measurement_noise`]) that the verdict's effect closed [%]; `None` when the
     /// nominal model's gap is not above that noise ([`gap::closed_percent`]).
     pub closed_percent: Option<f64>,
-    /// The nominal model misses the data by more than the true measurement noise (the gap
-    /// power over the noise's is above [`gap::closed_percent`]'s threshold): the withheld
-    /// effect is detectable at all.
+    /// The nominal model misses the data by more than the true measurement noise
+    /// ([`gap::gap_above`]): the withheld effect is detectable at all.
     pub detectable: bool,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
@@ -341,7 +340,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             let best = dx.effects.iter().find(|e| e.name == dx.verdict);
             outcome.verdict.clone_from(&dx.verdict);
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
-            outcome.detectable = gap::closed_percent(dx.gap_before.rms, 0.0, case.truth.measurement_noise()).is_some();
+            outcome.detectable = gap::gap_above(dx.gap_before.rms, case.truth.measurement_noise());
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
             outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));

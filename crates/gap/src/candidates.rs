@@ -153,12 +153,18 @@ pub(crate) struct Baseline {
 /// uncertainty and no share of it is reported.
 const MIN_GAP_OVER_FLOOR: f64 = 0.1;
 
+/// Whether a residual of RMS `rms` misses by more than a noise floor of RMS `floor`: its power
+/// above the floor's exceeds [`MIN_GAP_OVER_FLOOR`] of the floor's (else the gap is within the
+/// floor's own uncertainty).
+pub fn gap_above(rms: f64, floor: f64) -> bool {
+    rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
+}
+
 /// Share of the gap above a noise floor of RMS `floor` that a model closes [%], when the
 /// residual RMS goes from `rms_before` to `rms_after`: `(before² − after²)/(before² − floor²)`.
-/// `None` when the gap power is within [`MIN_GAP_OVER_FLOOR`] of the floor's: nothing to close.
+/// `None` without a gap above the floor ([`gap_above`]): nothing to close.
 pub fn closed_percent(rms_before: f64, rms_after: f64, floor: f64) -> Option<f64> {
-    let gap = rms_before.powi(2) - floor.powi(2);
-    (gap > MIN_GAP_OVER_FLOOR * floor.powi(2)).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / gap)
+    gap_above(rms_before, floor).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / (rms_before.powi(2) - floor.powi(2)))
 }
 
 impl Baseline {

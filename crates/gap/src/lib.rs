@@ -21,7 +21,7 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 
-pub use candidates::{ClMove, EFFECTS, EffectFit, NotTested, closed_percent};
+pub use candidates::{ClMove, EFFECTS, EffectFit, NotTested, closed_percent, gap_above};
 pub use consistency::ClCheck;
 
 pub use locate::{Band, FloorSource, Group, Where};
