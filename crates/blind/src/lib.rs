@@ -337,14 +337,16 @@ pub fn diagnose_case(case: &Case) -> Outcome {
     };
     match result {
         Ok(dx) => {
-            let best = dx.effects.iter().find(|e| e.name == dx.verdict);
+            let best = dx.selected.first();
             outcome.verdict.clone_from(&dx.verdict);
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
             outcome.detectable = gap::gap_above(dx.gap_before.rms, case.truth.measurement_noise());
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
-            outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));
-            outcome.cl_check = best.and_then(|e| e.cl.check.clone());
+            // The final model's Cl: the last selected effect's.
+            let last = dx.selected.last();
+            outcome.cl = last.map(|e| (e.cl.estimate, e.cl.ci95));
+            outcome.cl_check = last.and_then(|e| e.cl.check.clone());
         }
         Err(e) => outcome.verdict = format!("error: {e}"),
     }

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::identify::{nominal_with, pair};
 use crate::nominal_fmu::NominalFmu;
+use crate::units::{si, unit_of, with_ci};
 use crate::{DiagnoseArgs, NominalChoice};
 
 /// The `"fmu"` member of the JSON: the FMU as given, run on the data.
@@ -81,7 +82,10 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     let model = choose_nominal(args.nominal, fmu.as_ref());
     eprintln!("fitting the nominal {} model and the candidate effects", name(model));
-    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout, nominal: model })?;
+    if !(0.0..1.0).contains(&args.tolerance) {
+        anyhow::bail!("--tolerance {} must be a relative tolerance in [0, 1)", args.tolerance);
+    }
+    let dx = diagnose(&data, &nominal, &DiagnoseOptions { holdout: args.holdout, nominal: model, tolerance: args.tolerance })?;
     let fmu_out = match (fmu, &args.fmu) {
         (Some(f), Some(path)) => {
             eprintln!("running {} on the data's inputs", path.display());
@@ -112,27 +116,35 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     );
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
-        let mut params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
+        let mut params = effect_params(e);
         if let Some(hi) = e.ruled_out_above {
-            params.push(format!("ruled out above {hi:.3e} (95 %)"));
+            params.push(format!("ruled out above {} (95 %)", si(hi, unit_of(e.name), 2)));
+        }
+        if let Some(d) = e.drift_percent {
+            params.push(format!("{d:+.2} % from nominal"));
         }
         println!(
-            "effect      {:18} NRMSE {:.4} ({:+6.1} %)  closes {} of the gap over the floor  {}  Cl {:.4} µF  {}",
+            "effect      {:19} NRMSE {:.4} ({:+6.1} %)  closes {} of the gap over the floor  {:24}  Cl {}  {}",
             e.name,
             e.nrmse_after,
             -e.shrink_percent,
             e.closed_percent.map_or_else(|| "   –   ".to_string(), |c| format!("{c:5.1} %")),
             e.standing(),
-            e.cl.estimate * 1e6,
+            si(e.cl.estimate, "F", 5),
             params.join(", ")
         );
     }
     for n in &dx.not_tested {
-        println!("not tested  {:18} {}", n.name, n.reason);
+        println!("not tested  {:19} {}", n.name, n.reason);
     }
+    for (i, e) in dx.selected.iter().enumerate() {
+        let closed = e.closed_percent.map_or_else(|| "no gap above the floor".to_string(), |c| format!("{c:.1} % of the gap over the floor closed"));
+        println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.name, closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
+    }
+    println!("selection   {}", dx.selection_ended);
     println!("verdict     {}", dx.verdict);
     let (cl, ci95, test) = dx.final_cl();
-    println!("Cl          {:.4} µF, CI95 [{:.4}, {:.4}] µF; {test}", cl * 1e6, ci95[0] * 1e6, ci95[1] * 1e6);
+    println!("Cl          {}; {test}", with_ci(cl, Some(ci95), "F"));
 
     if let Some(path) = &args.json {
         let mut json = serde_json::to_value(&dx)?;
@@ -155,4 +167,14 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         eprintln!("wrote {}", file.display());
     }
     Ok(())
+}
+
+/// An effect's parameters with units and CI95 ("not identified" where the interval tells
+/// nothing); the nominal values a drift is measured from are left out.
+fn effect_params(e: &gap::EffectFit) -> Vec<String> {
+    e.params
+        .iter()
+        .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm")
+        .map(|(k, v)| format!("{k} = {}", with_ci(*v, e.ci95.get(k).copied(), unit_of(k))))
+        .collect()
 }

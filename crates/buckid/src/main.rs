@@ -9,6 +9,7 @@ mod identify;
 mod nominal_fmu;
 mod report;
 mod svg;
+mod units;
 
 use std::path::PathBuf;
 
@@ -50,6 +51,10 @@ struct DiagnoseArgs {
     /// Fraction of the samples, at the end, held out for judging.
     #[arg(long, default_value_t = 1.0 / 3.0)]
     holdout: f64,
+    /// Relative tolerance of the nominal circuit values: a fitted L, C or Rc within it of its
+    /// nominal is reported as consistent with the nominal, not as `param_drift`.
+    #[arg(long, default_value_t = 0.01)]
+    tolerance: f64,
     /// Write the diagnosis as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,

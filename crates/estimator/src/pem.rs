@@ -33,7 +33,8 @@ pub enum NoiseModel {
 pub struct FitOptions {
     /// Disturbance model.
     pub noise: NoiseModel,
-    /// Start values of the free parameters (`None`: nominal, and a grid over 0.1–200 µF for Cl).
+    /// Start values of the free parameters (`None`: a grid over 0.1–300 µF for Cl and over
+    /// factors 0.8–2 of the nominal value of each other free parameter).
     pub guess: Option<Vec<f64>>,
     /// Iteration limit of Levenberg–Marquardt.
     pub max_iterations: usize,
@@ -323,6 +324,13 @@ const GRID_SAMPLES: usize = 1000;
 /// Grid of start values for Cl [F], log-spaced over 0.1–200 µF (a half decade apart).
 const CL_GRID: [f64; 8] = [0.1e-6, 0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6, 300e-6];
 
+/// Factors on the start value of each free parameter other than Cl tried with the Cl grid (a
+/// series resistance or a drifted L, C, Rc starts from its nominal value, which can be far).
+const MAGNITUDE_GRID: [f64; 4] = [0.8, 1.0, 1.25, 2.0];
+
+/// Most free parameters besides Cl gridded jointly (the grid grows as 4ⁿ).
+const MAX_GRIDDED: usize = 2;
+
 /// Fits the free parameters of `model` to its data, starting from the circuit values `nominal`.
 ///
 /// ```
@@ -371,22 +379,35 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
     p[..nf].copy_from_slice(&logs);
     p[nf..nf + lay.nx].copy_from_slice(&model.dc_state(&with_free(nominal, &model.free, &logs)));
     if let (Some(ci), None) = (cl_index, &opts.guess) {
-        // Coarse grid over Cl from the DC state: a wrong initial state only spoils the first
-        // few dozen samples (the LC mode decays within ~10 periods), not the ranking.
-        // Ranking needs no more than the first GRID_SAMPLES samples.
+        // Coarse grid over Cl and the other free parameters' magnitudes, from the DC state of
+        // each point: a wrong initial state only spoils the first few dozen samples (the LC mode
+        // decays within ~10 periods), not the ranking, which needs no more than the first
+        // GRID_SAMPLES samples. Starting the others at their nominal values alone can leave the
+        // fit in a valley where Cl runs to a bound and absorbs what the others should explain.
         let head = model.prefix(GRID_SAMPLES);
-        let mut best = (f64::INFINITY, logs[ci]);
-        for cl in CL_GRID {
-            logs[ci] = cl.ln();
-            let levels = head.levels(&with_free(nominal, &head.free, &logs), false);
-            p[..nf].copy_from_slice(&logs);
+        let others: Vec<usize> = (0..nf).filter(|&i| i != ci).collect();
+        let scales: &[f64] = if others.len() <= MAX_GRIDDED { &MAGNITUDE_GRID } else { &[1.0] };
+        let mut best = (f64::INFINITY, logs.clone());
+        for point in 0..CL_GRID.len() * scales.len().pow(others.len() as u32) {
+            let mut trial = logs.clone();
+            trial[ci] = CL_GRID[point % CL_GRID.len()].ln();
+            let mut rest = point / CL_GRID.len();
+            for &i in &others {
+                trial[i] += scales[rest % scales.len()].ln();
+                rest /= scales.len();
+            }
+            let params = with_free(nominal, &head.free, &trial);
+            let levels = head.levels(&params, false);
+            p[..nf].copy_from_slice(&trial);
+            p[nf..nf + lay.nx].copy_from_slice(&head.dc_state(&params));
             let cost = evaluate(&head, &levels, lay, &p, &weights, false, false, None).cost;
             if cost < best.0 {
-                best = (cost, logs[ci]);
+                best = (cost, trial);
             }
         }
-        logs[ci] = best.1;
+        logs = best.1;
         p[..nf].copy_from_slice(&logs);
+        p[nf..nf + lay.nx].copy_from_slice(&model.dc_state(&with_free(nominal, &model.free, &logs)));
     }
     // The prediction is affine in x0 (output error), so one Gauss–Newton step solves it.
     let levels = model.levels(&with_free(nominal, &model.free, &logs), false);

@@ -151,6 +151,16 @@ pub fn fit_with(data: &DataSet, start: &Params, free: &[Free], n_est: usize, cri
 /// from its start leaves Cl and the drop in a wrong valley). The known values come from the
 /// first start.
 pub fn fit_from(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
+    fit_from_starts(data, starts, free, n_est, criterion, true)
+}
+
+/// [`fit_from`] from exactly the given starts, without the Cl grid: for a model extended from
+/// one already fitted, whose Cl is a good start (a grid point per start costs a simulation).
+pub fn fit_from_exactly(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, criterion: Criterion) -> Result<Candidate, EstimatorError> {
+    fit_from_starts(data, starts, free, n_est, criterion, false)
+}
+
+fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, criterion: Criterion, cl_grid: bool) -> Result<Candidate, EstimatorError> {
     let Some(start) = starts.first() else {
         return Err(EstimatorError::Config("at least one start is needed".into()));
     };
@@ -177,7 +187,7 @@ pub fn fit_from(data: &DataSet, starts: &[Params], free: &[Free], n_est: usize, 
     // that cannot describe the data (e.g. a linear model on DCM data) may be far off, and where
     // the model misses, the differenced criterion can have its best valley far from the
     // output error's.
-    if let Some(ci) = free.iter().position(|f| *f == Free::Cl) {
+    if let (Some(ci), true) = (free.iter().position(|f| *f == Free::Cl), cl_grid) {
         tries = tries
             .into_iter()
             .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|c| c.ln())).map(move |l| {

@@ -5,8 +5,9 @@
 pub const LAGS: usize = 25;
 /// Standard normal 99.5 % quantile: two-sided 99 % band of one correlation coefficient.
 const Z_995: f64 = 2.575_829;
-/// Standard normal 99 % quantile, for the one-sided chi-square approximation.
-const Z_99: f64 = 2.326_348;
+/// Standard normal 99 % quantile: a one-sided 99 % bound in σ (and the one-sided chi-square
+/// approximation).
+pub const Z_99: f64 = 2.326_348;
 /// Standard normal 97.5 % quantile: the half-width of a two-sided 95 % interval in σ.
 pub const Z_975: f64 = 1.959_964;
 /// Standard normal 95 % quantile: a one-sided 95 % bound in σ.

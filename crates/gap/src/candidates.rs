@@ -7,7 +7,7 @@ use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use estimator::simulated::Criterion;
-use estimator::validate::chi2_99;
+use estimator::validate::{Z_99, chi2_99};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -114,6 +114,21 @@ pub struct EffectFit {
     /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change),
     /// identifiable and better on the held-out data.
     pub significant: bool,
+    /// Share of the held-out gap above the floor left by the model it extends that it closes
+    /// [%] (the nominal's for a single effect, the sequence so far's in `selected`).
+    pub closed_of_remaining: Option<f64>,
+    /// Material to an engineer: the model it extends misses materially above the noise floor
+    /// ([`gap_material`]) and the effect closes at least [`MATERIAL_SHARE`] % of that gap.
+    pub material: bool,
+    /// For `param_drift`: how far the freed value lies from its nominal [%].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_percent: Option<f64>,
+    /// For `param_drift`: the drift lies within the tolerance of the nominal value, so the
+    /// nominal is consistent with the data, whatever the statistics say.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub within_tolerance: bool,
+    /// Significant, material and (for a drift) outside the tolerance: an effect to report.
+    pub finding: bool,
     /// For an effect that is not significant and is linear at zero (`dead_time`, `load_esr`,
     /// `esl`, `cap_dc_bias`): the one-sided 95 % upper limit of its magnitude, how large it
     /// could be and still hide in this data (see `limits`).
@@ -125,12 +140,15 @@ pub struct EffectFit {
 }
 
 impl EffectFit {
-    /// Its standing in words: `significant`, `not significant` or `not identifiable`.
+    /// Its standing in words: `finding`, `within tolerance`, `significant, immaterial`,
+    /// `not significant` or `not identifiable`.
     pub fn standing(&self) -> &'static str {
-        match (self.significant, self.identifiable) {
-            (true, _) => "significant",
-            (false, true) => "not significant",
-            (false, false) => "not identifiable",
+        match (self.finding, self.significant, self.within_tolerance, self.material, self.identifiable) {
+            (true, ..) => "finding",
+            (false, true, true, ..) => "within tolerance",
+            (false, true, false, false, _) => "significant, immaterial",
+            (false, false, _, _, false) => "not identifiable",
+            _ => "not significant",
         }
     }
 }
@@ -147,17 +165,44 @@ pub(crate) struct Baseline {
     pub cl: f64,
     /// Sensor-noise RMS [V], when known.
     pub floor: Option<f64>,
+    /// Fourth differences the floor was estimated from.
+    pub floor_samples: usize,
+    /// Held-out samples.
+    pub held_out: usize,
+    /// Relative tolerance of the nominal circuit values (a drift within it is no finding).
+    pub tolerance: f64,
 }
 
 /// Gap power below which (as a fraction of the floor's) the gap is within the floor's own
 /// uncertainty and no share of it is reported.
-const MIN_GAP_OVER_FLOOR: f64 = 0.1;
+pub(crate) const MIN_GAP_OVER_FLOOR: f64 = 0.1;
 
 /// Whether a residual of RMS `rms` misses by more than a noise floor of RMS `floor`: its power
 /// above the floor's exceeds [`MIN_GAP_OVER_FLOOR`] of the floor's (else the gap is within the
 /// floor's own uncertainty).
 pub fn gap_above(rms: f64, floor: f64) -> bool {
     rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
+}
+
+/// Smallest share of the gap above the floor, left by the model an effect extends, that the
+/// effect must close to be material [%].
+pub const MATERIAL_SHARE: f64 = 25.0;
+
+/// Relative variance of a variance estimated from `m` fourth differences of white noise, times
+/// `m`: `2·Σρ²` over the lags of the difference's autocorrelation
+/// (`ρ = 1, −56/70, 28/70, −8/70, 1/70`).
+const FOURTH_DIFFERENCE_VARIANCE: f64 = 2.0 * (1.0 + 2.0 * (3136.0 + 784.0 + 64.0 + 1.0) / 4900.0);
+
+/// Whether a held-out residual of RMS `rms` over `n` samples misses **materially** above a
+/// noise floor of RMS `floor` estimated from `floor_samples` fourth differences: its power
+/// above the floor's exceeds both the practical threshold of [`gap_above`] and the 99 % point
+/// of the ratio's sampling spread under "nothing but noise" (the residual's `2/n` and the
+/// floor's own). A likelihood ratio on thousands of samples finds any simulator mismatch; this
+/// asks whether the model misses by more than the data's noise, by an amount worth naming.
+pub fn gap_material(rms: f64, n: usize, floor: f64, floor_samples: usize) -> bool {
+    let excess = rms.powi(2) / floor.powi(2) - 1.0;
+    let spread = (2.0 / n.max(1) as f64 + FOURTH_DIFFERENCE_VARIANCE / floor_samples.max(1) as f64).sqrt();
+    gap_above(rms, floor) && excess > Z_99 * spread
 }
 
 /// Share of the gap above a noise floor of RMS `floor` that a model closes [%], when the
@@ -177,6 +222,16 @@ impl Baseline {
     pub(crate) fn closed_percent(&self, rms_after: f64) -> Option<f64> {
         closed_percent(self.rms, rms_after, self.floor?)
     }
+
+    /// Share of the gap left by a model of residual RMS `rms_before` that a residual RMS of
+    /// `rms_after` closes [%], when that gap is material ([`gap_material`]). Without a floor
+    /// (inputs that step every sample), the share of the whole residual power.
+    pub(crate) fn closed_of_material_gap(&self, rms_before: f64, rms_after: f64) -> Option<f64> {
+        match self.floor {
+            Some(floor) => gap_material(rms_before, self.held_out, floor, self.floor_samples).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / (rms_before.powi(2) - floor.powi(2))),
+            None => Some(100.0 * (1.0 - (rms_after / rms_before).powi(2))),
+        }
+    }
 }
 
 /// Root mean square of `r`.
@@ -194,15 +249,17 @@ pub struct NotTested {
 }
 
 
-struct Trial {
-    cand: Candidate,
-    params: BTreeMap<String, f64>,
-    ci95: BTreeMap<String, [f64; 2]>,
+pub(crate) struct Trial {
+    pub cand: Candidate,
+    pub params: BTreeMap<String, f64>,
+    pub ci95: BTreeMap<String, [f64; 2]>,
     /// Extra estimated values against the nominal model (0 for a swapped structure).
-    extra: usize,
+    pub extra: usize,
     /// Not nested in the model it is judged against by continuous parameters (a discrete
     /// choice such as the delay, or a different model class), so the LR test does not apply.
-    not_nested: bool,
+    pub not_nested: bool,
+    /// For `param_drift`: the freed value's relative distance from its nominal.
+    pub drift: Option<f64>,
 }
 
 /// Residual variance of a candidate's fit on the estimation part.
@@ -269,47 +326,34 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
         }
         fit => fit.and_then(Result::ok),
     }
-    .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, not_nested: false }, base));
-    // Stage two: each other candidate on the averaged model and, when the ripple is
-    // significant, also on the PWM model; the better held-out fit counts, judged against its base.
+    .map(|cand| judge("switching_ripple", Trial { cand, params: BTreeMap::new(), ci95: BTreeMap::new(), extra: 0, not_nested: false, drift: None }, base));
+    // Every other candidate is one effect on the nominal model. Effects on top of the ripple
+    // (averaged nominal, switched data) are the forward selection's second step (`select`).
     let pwm_base = ripple.as_ref().filter(|r| r.0.significant).map(|r| &r.1);
-    let mut bases: Vec<(&Candidate, IdentifyOptions)> = vec![(base, nominal_opts.clone())];
-    if let Some(pwm) = pwm_base {
-        bases.push((pwm, IdentifyOptions { structures: vec![Structure::Pwm], ..nominal_opts.clone() }));
-    }
     let switched_base = pwm_base.unwrap_or(base);
-    // The nonlinear effects with the plant simulator itself, on switched data only (the
-    // ripple significant or in the nominal), in parallel with the grey-box candidates.
     let switched = pwm_base.is_some() || opts.nominal == Nominal::Switched;
     let grey_box = || {
-        let mut best: Vec<(&'static str, Trial, &Candidate)> = Vec::new();
+        let mut best: Vec<(&'static str, Trial)> = Vec::new();
         let mut failed: Vec<NotTested> = Vec::new();
-        for (against, opts) in &bases {
-            for (name, trial) in effect_trials(data, nominal, opts) {
-                let trial = match trial {
-                    Ok(t) => t,
-                    Err(reason) => {
-                        if !failed.iter().any(|f| f.name == name) {
-                            failed.push(NotTested { name, reason });
-                        }
-                        continue;
-                    }
-                };
-                match best.iter_mut().find(|b| b.0 == name) {
-                    Some(b) if held_out_nrmse(&b.1.cand) <= held_out_nrmse(&trial.cand) => {}
-                    Some(b) => *b = (name, trial, against),
-                    None => best.push((name, trial, against)),
-                }
+        for (name, trial) in effect_trials(data, nominal, &nominal_opts) {
+            match trial {
+                Ok(t) => best.push((name, t)),
+                Err(reason) => failed.push(NotTested { name, reason }),
             }
         }
-        // Fitted on one base: not "not tested" for failing on the other.
-        failed.retain(|f| !best.iter().any(|b| b.0 == f.name));
         (best, failed)
     };
+    // The nonlinear effects with the plant simulator itself, when the nominal is switched, in
+    // parallel with the grey-box candidates.
     let simulated = || -> (Vec<EffectFit>, Vec<NotTested>) {
         let untested = |reason: &str| SIMULATED_EFFECTS.iter().map(|e| NotTested { name: e.name, reason: reason.to_string() }).collect();
-        if !switched {
-            return (Vec::new(), untested("switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)"));
+        if opts.nominal != Nominal::Switched {
+            let reason = if switched {
+                "switched-circuit effect: fitted on top of switching_ripple (see `selected`), not on the averaged nominal"
+            } else {
+                "switched-circuit effect: needs switched data (the ripple in the data or in the nominal model)"
+            };
+            return (Vec::new(), untested(reason));
         }
         // Judged against the simulator with Cl alone (the same criterion window and initial
         // state treatment), and placed on the others' AIC scale through the model it extends.
@@ -350,7 +394,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     if let Some(fit) = crate::quantization::candidate(data, switched_base, n_est, baseline) {
         extra.push(fit);
     }
-    let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial, against)| judge(name, trial, against).0).collect();
+    let mut out: Vec<EffectFit> = best.into_iter().map(|(name, trial)| judge(name, trial, base).0).collect();
     out.extend(ripple.map(|r| r.0));
     out.extend(extra);
     Fitted { effects: out, not_tested, switched }
@@ -415,7 +459,7 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
                 if dcm {
                     params.insert("dcm".to_string(), 1.0);
                 }
-                Ok(Trial { cand, params, ci95, extra: extra.len(), not_nested: dcm })
+                Ok(Trial { cand, params, ci95, extra: extra.len(), not_nested: dcm, drift: None })
             });
             (name, trial)
         })
@@ -444,7 +488,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
         let e = cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()))?;
         let params = BTreeMap::from([(f.name().to_string(), e.value), (format!("{}_nominal", f.name()), f.get(nominal))]);
         let ci95 = BTreeMap::from([(f.name().to_string(), [e.ci95.0, e.ci95.1])]);
-        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false })
+        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false, drift: Some(e.value / f.get(nominal) - 1.0) })
     });
     // switch_resistance: extra series resistance on top of RL (a fitted RL below the nominal is
     // not this effect: resistance is only ever added).
@@ -455,19 +499,21 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
         }
         let params = BTreeMap::from([("switch_resistance".to_string(), e.value - nominal.rl)]);
         let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);
-        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false })
+        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false, drift: None })
     });
     // delay: the duty drives the switch 1 or 2 periods late.
     let delay = best_of((1..=2usize).map(|n| (n, run(&delayed(data, n), nominal, base_opts.clone())))).map(|(n, cand)| {
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
-        Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true }
+        Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true, drift: None }
     });
     vec![("param_drift", drift), ("switch_resistance", resistance), ("delay", delay)]
 }
 
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
-/// otherwise, and better on the held-out data); shrink and Cl movement against the nominal.
-fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseline: &Baseline) -> (EffectFit, Candidate) {
+/// otherwise, and better on the held-out data), materiality against the gap `against` leaves
+/// above the floor, the tolerance of a drift; shrink, gap closed and Cl movement against the
+/// nominal.
+pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseline: &Baseline) -> (EffectFit, Candidate) {
     let var = variance;
     let nrmse_after = held_out_nrmse(&t.cand);
     let nrmse_against = held_out_nrmse(against);
@@ -482,6 +528,10 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
     let residual = residual(&t.cand);
     let rms_after = rms(&residual);
     let identifiable = identified(&t.ci95);
+    let significant = passes && identifiable && nrmse_after < nrmse_against;
+    let closed_of_remaining = baseline.closed_of_material_gap(rms(&self::residual(against)), rms_after);
+    let material = closed_of_remaining.is_some_and(|c| c >= MATERIAL_SHARE);
+    let within_tolerance = t.drift.is_some_and(|d| d.abs() <= baseline.tolerance);
     let fit = EffectFit {
         name,
         params: t.params,
@@ -496,7 +546,12 @@ fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: usize, baseli
         lr_statistic,
         lr_limit,
         identifiable,
-        significant: passes && identifiable && nrmse_after < nrmse_against,
+        significant,
+        closed_of_remaining,
+        material,
+        drift_percent: t.drift.map(|d| 100.0 * d),
+        within_tolerance,
+        finding: significant && material && !within_tolerance,
         ruled_out_above: None,
         residual,
     };

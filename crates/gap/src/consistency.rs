@@ -17,12 +17,12 @@
 //! and honest about what the model can tell.
 use buck_model::Params;
 use estimator::data::DataSet;
-use estimator::model::Free;
 use estimator::simulated::{Criterion, fit_with};
 use estimator::validate::{Z_975, chi2_99};
 use serde::Serialize;
 
-use crate::candidates::{EffectFit, SIMULATED_EFFECTS, delayed};
+use crate::candidates::EffectFit;
+use crate::select::Stack;
 
 /// The test of Cl's interval.
 #[derive(Debug, Clone, Serialize)]
@@ -78,50 +78,11 @@ fn log_sd([lo, hi]: [f64; 2]) -> f64 {
     (hi.ln() - lo.ln()) / (2.0 * Z_975)
 }
 
-/// How the plant simulator expresses a final model: circuit values to start from, the free
-/// parameters (Cl first), and the duty delay.
-fn simulator_model(effect: Option<&EffectFit>, nominal: &Params, cl: f64) -> Result<(Params, Vec<Free>, usize), String> {
-    let mut p = Params { cl, ..*nominal };
-    let mut free = vec![Free::Cl];
-    let mut delay = 0;
-    let Some(e) = effect else { return Ok((p, free, delay)) };
-    let param = |key: &str| e.params.get(key).copied().ok_or_else(|| format!("{} has no parameter `{key}`", e.name));
-    match e.name {
-        "switching_ripple" | "adc_quantization" => {}
-        "switch_resistance" => {
-            p.rl += param("switch_resistance")?;
-            free.push(Free::RL);
-        }
-        "param_drift" => {
-            let f = [Free::L, Free::C, Free::Rc].into_iter().find(|f| e.params.contains_key(f.name())).ok_or("param_drift names no parameter")?;
-            f.set(&mut p, param(f.name())?);
-            free.push(f);
-        }
-        "delay" => delay = param("delay")? as usize,
-        name => {
-            let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
-            p.dcm = s.dcm;
-            for &(f, _) in s.extra {
-                f.set(&mut p, param(f.name())?);
-                free.push(f);
-            }
-        }
-    }
-    Ok((p, free, delay))
-}
-
-/// Tests Cl's interval `model_ci95` around `cl` of the final model (`effect`, or the nominal
-/// when `None`) on switched data.
-pub(crate) fn check(data: &DataSet, nominal: &Params, effect: Option<&EffectFit>, cl: f64, model_ci95: [f64; 2], n_est: usize) -> Result<ClCheck, String> {
-    let (start, free, delay) = simulator_model(effect, nominal, cl)?;
-    let shifted;
-    let data = if delay > 0 {
-        shifted = delayed(data, delay);
-        &shifted
-    } else {
-        data
-    };
-    let cand = fit_with(data, &start, &free, n_est, Criterion::Differenced).map_err(|e| e.to_string())?;
+/// Tests Cl's interval `model_ci95` around `cl` of the final model (the nominal with `effects`)
+/// on switched data.
+pub(crate) fn check(data: &DataSet, nominal: &Params, effects: &[&EffectFit], cl: f64, model_ci95: [f64; 2], n_est: usize) -> Result<ClCheck, String> {
+    let model = Stack::of(effects, nominal, cl, true)?;
+    let cand = fit_with(&model.data(data), &model.params, &model.free, n_est, Criterion::Differenced).map_err(|e| e.to_string())?;
     let hp = cand.fit.estimate("Cl").ok_or("the high-pass fit has no Cl")?;
     let high_pass_ci95 = [hp.ci95.0, hp.ci95.1];
     let (sd_model, sd_hp) = (log_sd(model_ci95), hp.rel_std);

@@ -14,6 +14,7 @@ mod limits;
 mod locate;
 mod noise;
 mod quantization;
+mod select;
 
 use buck_model::Params;
 use estimator::data::DataSet;
@@ -21,11 +22,11 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 
-pub use candidates::{ClMove, EFFECTS, EffectFit, NotTested, closed_percent, gap_above};
+pub use candidates::{ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material};
 pub use consistency::ClCheck;
 
 pub use locate::{Band, FloorSource, Group, Where};
-pub use noise::noise_floor;
+pub use noise::{noise_floor, noise_floor_estimate};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -55,11 +56,14 @@ pub struct DiagnoseOptions {
     pub holdout: f64,
     /// The nominal simulation model.
     pub nominal: Nominal,
+    /// Relative tolerance of the nominal circuit values: a `param_drift` within it is
+    /// consistent with the nominal, not a finding.
+    pub tolerance: f64,
 }
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
-        Self { holdout: 1.0 / 3.0, nominal: Nominal::Averaged }
+        Self { holdout: 1.0 / 3.0, nominal: Nominal::Averaged, tolerance: 0.01 }
     }
 }
 
@@ -73,7 +77,8 @@ pub struct Traces {
     pub measured: Vec<f64>,
     /// Nominal model's free-run simulation [V].
     pub nominal: Vec<f64>,
-    /// Simulation with the verdict's effect added (`None` when the verdict is `none`) [V].
+    /// Simulation of the final model, every selected effect added (`None` when the verdict is
+    /// `none`) [V].
     pub after: Option<Vec<f64>>,
 }
 
@@ -112,7 +117,13 @@ pub struct Diagnosis {
     pub effects: Vec<EffectFit>,
     /// Effects of the design table not fitted to this data, with the reason.
     pub not_tested: Vec<NotTested>,
-    /// The significant effect that closes most of the gap, or `none`.
+    /// The forward selection: the findings in the order they were added, each fitted on top of
+    /// the ones before it (its `closed_percent` is the share of the nominal's gap closed once it
+    /// is added, `closed_of_remaining` the share of what the sequence before it left).
+    pub selected: Vec<EffectFit>,
+    /// Why the sequence ended.
+    pub selection_ended: String,
+    /// The first selected effect (the single effect that explains most), or `none`.
     pub verdict: String,
     /// The nominal model used.
     pub nominal: Nominal,
@@ -122,10 +133,10 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
-    /// Cl of the model the diagnosis ends with (the verdict's, or the nominal's when the verdict
-    /// is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
+    /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
+    /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let (cl, ci95, check, skipped) = match self.effects.iter().find(|e| e.name == self.verdict) {
+        let (cl, ci95, check, skipped) = match self.selected.last() {
             Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref()),
             None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref()),
         };
@@ -157,28 +168,35 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let base = base.best().clone();
     let residual = candidates::residual(&base);
+    let floor = noise::noise_floor_estimate(data);
+    let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let baseline = candidates::Baseline {
         nrmse: candidates::held_out_nrmse(&base),
         rms: candidates::rms(&residual),
         cl: base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value),
-        floor: noise::noise_floor(data),
+        floor: floor.map(|f| f.0),
+        floor_samples: floor.map_or(0, |f| f.1),
+        held_out: data.len() - n_est,
+        tolerance: opts.tolerance,
     };
-    let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let candidates::Fitted { mut effects, not_tested, switched } = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
-    // The significant effect with the lowest Akaike criterion: an effect on top of the
-    // ripple-exact model beats the ripple alone only by explaining more, and of two nested
-    // effects (dcm inside diode_drop) the richer one wins only by more than its parameter's worth.
-    let verdict = effects
-        .iter()
-        .filter(|e| e.significant)
-        .min_by(|a, b| a.aic.total_cmp(&b.aic))
-        .map_or_else(|| "none".to_string(), |e| e.name.to_string());
+    // The first step: the finding (significant, material, outside tolerance) with the lowest
+    // Akaike criterion; of two nested effects (dcm inside diode_drop) the richer one wins only
+    // by more than its parameter's worth. Then forward selection on top of it.
+    // A drift within tolerance that explains best leaves nothing to name.
+    let first = select::best_material(effects.iter(), |e| e);
+    let (mut selected, selection_ended) = match first {
+        Some(first) if first.finding => select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline),
+        Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
+        None => (Vec::new(), "no effect is a finding".to_string()),
+    };
+    let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the interval to report, the test, or
     // why it was not made.
-    let test = |effect: Option<&EffectFit>, cl: f64, ci95: [f64; 2]| {
-        let result = if switched { consistency::check(data, nominal, effect, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) };
+    let test = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
+        let result = if switched { consistency::check(data, nominal, fits, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) };
         match result {
             Ok(check) => (check.ci95(), Some(check), None),
             Err(reason) => (ci95, None, Some(reason)),
@@ -186,25 +204,29 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
     let (mut cl_ci95, mut cl_check, mut cl_check_skipped) = (base_cl, None, None);
-    if let Some(i) = effects.iter().position(|e| e.name == verdict) {
-        let tested = test(Some(&effects[i]), effects[i].cl.estimate, effects[i].cl.ci95);
-        let cl = &mut effects[i].cl;
-        (cl.ci95, cl.check, cl.check_skipped) = tested;
+    if let Some((last, before)) = selected.split_last_mut() {
+        let mut fits: Vec<&EffectFit> = before.iter().collect();
+        fits.push(last);
+        let tested = test(&fits, last.cl.estimate, last.cl.ci95);
+        (last.cl.ci95, last.cl.check, last.cl.check_skipped) = tested;
     } else {
-        (cl_ci95, cl_check, cl_check_skipped) = test(None, baseline.cl, base_cl);
+        (cl_ci95, cl_check, cl_check_skipped) = test(&[], baseline.cl, base_cl);
+    }
+    // The verdict's entry in the table carries the same test when it is the final model.
+    if let [only] = selected.as_slice()
+        && let Some(e) = effects.iter_mut().find(|e| e.name == only.name)
+    {
+        e.cl = only.cl.clone();
     }
     // The noise floor from the data alone; where the inputs step too often for that, what the
-    // best significant model leaves (else the nominal residual).
+    // final model leaves (else the nominal residual).
     let floor = match baseline.floor {
         Some(sigma) => locate::Floor::White(sigma),
-        None => locate::Floor::Residual(effects.iter().find(|e| e.name == verdict).map_or(&residual, |e| &e.residual)),
+        None => locate::Floor::Residual(selected.last().map_or(&residual, |e| &e.residual)),
     };
     let location = locate::locate(data, n_est, &residual, floor);
     let measured = base.validation.traces.measured.clone();
-    let after = effects
-        .iter()
-        .find(|e| e.name == verdict)
-        .map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
+    let after = selected.last().map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
         gap_before: Before {
@@ -219,6 +241,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         location,
         effects,
         not_tested,
+        selected,
+        selection_ended,
         verdict,
         nominal: opts.nominal,
         traces,

@@ -27,6 +27,12 @@ const MIN_DIFFERENCES: usize = 100;
 /// Standard deviation of the white noise on `data.vout` [V], or `None` when the inputs step
 /// too often to leave [`MIN_DIFFERENCES`] quiet windows.
 pub fn noise_floor(data: &DataSet) -> Option<f64> {
+    noise_floor_estimate(data).map(|(sigma, _)| sigma)
+}
+
+/// [`noise_floor`] and the number of fourth differences it was estimated from (its
+/// uncertainty).
+pub fn noise_floor_estimate(data: &DataSet) -> Option<(f64, usize)> {
     let n = data.len();
     let span = ORDER + SETTLE;
     let steady = |k: usize| data.duty[k] == data.duty[k - 1] && data.io[k] == data.io[k - 1] && data.vin[k] == data.vin[k - 1];
@@ -43,7 +49,7 @@ pub fn noise_floor(data: &DataSet) -> Option<f64> {
             count += 1;
         }
     }
-    (count >= MIN_DIFFERENCES).then(|| (sum / count as f64 / GAIN).sqrt())
+    (count >= MIN_DIFFERENCES).then(|| ((sum / count as f64 / GAIN).sqrt(), count))
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::validate::nrmse;
 
-use crate::candidates::{Baseline, ClMove, EffectFit, rms};
+use crate::candidates::{Baseline, ClMove, EffectFit, MIN_GAP_OVER_FLOOR, rms};
 
 
 /// Fraction of the readings that must lie on the lattice.
@@ -81,6 +81,9 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
     // Reported for the plant's default full scale (`adc_vfs`).
     let bits = (buck_model::digital::Digital::default().adc_vfs / grid.0).log2();
     let rms_after = rms(&residual);
+    // Material when the quantization noise is a material part of the measurement noise (it
+    // closes no gap: no model predicts noise).
+    let material = baseline.floor.is_none_or(|f| grid.0.powi(2) / 12.0 >= MIN_GAP_OVER_FLOOR * f * f);
     Some(EffectFit {
         name: "adc_quantization",
         params: BTreeMap::from([("lsb".to_string(), grid.0), ("bits_at_16V_full_scale".to_string(), bits), ("input_noise_rms".to_string(), sigma)]),
@@ -97,6 +100,11 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         lr_limit: None,
         identifiable: true,
         significant: true,
+        closed_of_remaining: None,
+        material,
+        drift_percent: None,
+        within_tolerance: false,
+        finding: material,
         ruled_out_above: None,
         residual,
     })

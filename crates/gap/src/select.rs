@@ -1,0 +1,427 @@
+//! Several effects at once: forward selection.
+//!
+//! Real converters carry more than one effect (a diode drop *and* a series resistance, dead
+//! time *and* a load ESR). The first step is the single-effect diagnosis; each further step
+//! refits the model built so far ([`Stack`]: the nominal circuit with the selected effects at
+//! their fitted values, their parameters free), fits every remaining effect on top of it, and
+//! adds the best *finding* (significant, material, outside tolerance; lowest Akaike criterion).
+//! It stops when no candidate is a finding or the gap left is no longer material.
+//!
+//! On switched data every step after the first is fitted with the plant simulator (the
+//! grey-box effects too: a series resistance is `RL` free, a drift `L`, `C` or `Rc` free), so
+//! the effects combine exactly; on averaged data, with the averaged grey-box model
+//! (`switch_resistance`, `param_drift`, `delay`).
+use std::collections::BTreeMap;
+
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::identify::{Candidate, IdentifyOptions, identify};
+use estimator::model::{Free, Structure};
+use estimator::simulated::{Criterion, fit_from_exactly};
+use rayon::prelude::*;
+
+use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, gap_material, judge};
+
+/// Most effects in a sequence.
+const MAX_EFFECTS: usize = 4;
+
+/// Extra series resistance tried as starts on top of the model's `RL` [Ω].
+const RESISTANCE_STARTS: [f64; 2] = [0.0, 0.03];
+
+/// The switches' own resistance tried as starts [Ω].
+const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
+
+/// Extra series resistance of the screen's probe [Ω].
+const PROBE_RESISTANCE: f64 = 0.01;
+
+/// Relative change of a "known" value in the screen's probe.
+const PROBE_DRIFT: f64 = 0.05;
+
+/// Factors on a "known" value tried as starts of a drift (smooth and monotonic in the output:
+/// the nominal value serves).
+const DRIFT_STARTS: [f64; 1] = [1.0];
+
+/// A model of the data: the nominal circuit with effects added, as the plant simulator (or,
+/// on averaged data, the averaged grey-box model) expresses it.
+#[derive(Debug, Clone)]
+pub(crate) struct Stack {
+    /// Circuit values, effects included, at their fitted (or start) values.
+    pub params: Params,
+    /// Free parameters, Cl first.
+    pub free: Vec<Free>,
+    /// Periods the duty drives the switch late.
+    pub delay: usize,
+    /// The effects it holds.
+    pub effects: Vec<&'static str>,
+    /// The switched circuit (ripple included, fitted with the plant simulator), else the
+    /// averaged one (the averaged grey-box model).
+    pub switched: bool,
+}
+
+impl Stack {
+    /// The nominal circuit (switched or averaged) with Cl free at `cl`.
+    pub fn nominal(nominal: &Params, cl: f64, switched: bool) -> Self {
+        Self { params: Params { cl, ..*nominal }, free: vec![Free::Cl], delay: 0, effects: Vec::new(), switched }
+    }
+
+    /// The nominal circuit with the effects `fits` added at their fitted values, Cl at `cl`.
+    pub fn of(fits: &[&EffectFit], nominal: &Params, cl: f64, switched: bool) -> Result<Self, String> {
+        fits.iter().try_fold(Self::nominal(nominal, cl, switched), |s, e| s.with(e))
+    }
+
+    /// With the fitted effect `e` added.
+    fn with(mut self, e: &EffectFit) -> Result<Self, String> {
+        let param = |key: &str| e.params.get(key).copied().ok_or_else(|| format!("{} has no parameter `{key}`", e.name));
+        match e.name {
+            "switching_ripple" => self.switched = true,
+            "adc_quantization" => {}
+            // The switches' own resistance in the switched circuit (only while each conducts: a
+            // diode buck's low side has none), an extra series resistance in the averaged one.
+            "switch_resistance" if e.params.contains_key("series_resistance") => {
+                self.params.rl += param("series_resistance")?;
+                self.free.push(Free::RL);
+            }
+            "switch_resistance" if self.switched => {
+                self.params.switch_resistance = param("switch_resistance")?;
+                self.free.push(Free::SwitchResistance);
+            }
+            "switch_resistance" => {
+                self.params.rl += param("switch_resistance")?;
+                self.free.push(Free::RL);
+            }
+            "param_drift" => {
+                let f = [Free::L, Free::C, Free::Rc].into_iter().find(|f| e.params.contains_key(f.name())).ok_or("param_drift names no parameter")?;
+                f.set(&mut self.params, param(f.name())?);
+                self.free.push(f);
+            }
+            "delay" => self.delay = param("delay")? as usize,
+            name => {
+                let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+                self.params.dcm |= s.dcm;
+                for &(f, _) in s.extra {
+                    f.set(&mut self.params, param(f.name())?);
+                    self.free.push(f);
+                }
+            }
+        }
+        self.effects.push(e.name);
+        Ok(self)
+    }
+
+    /// The data as this model sees it (the duty delayed).
+    pub fn data(&self, data: &DataSet) -> DataSet {
+        if self.delay > 0 { delayed(data, self.delay) } else { data.clone() }
+    }
+
+    /// Fits the free parameters from the best of `starts`: with the plant simulator on switched
+    /// data (Cl from the model it extends, already fitted), else with the averaged grey-box
+    /// model (from a grid over Cl and the free magnitudes).
+    fn fit(&self, data: &DataSet, starts: &[Params], n_est: usize, holdout: f64) -> Result<Candidate, String> {
+        let data = self.data(data);
+        if self.switched {
+            return fit_from_exactly(&data, starts, &self.free, n_est, Criterion::OutputError).map_err(|e| e.to_string());
+        }
+        let opts = IdentifyOptions { structures: vec![Structure::Averaged], free: self.free.clone(), holdout, ..IdentifyOptions::default() };
+        let fits = starts.iter().map(|p| identify(&data, p, &opts).map(|id| id.best().clone()).map_err(|e| e.to_string()));
+        fits.reduce(|a, b| match (a, b) {
+            (Ok(a), Ok(b)) => Ok(if b.fit.cost < a.fit.cost { b } else { a }),
+            (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+            (Err(a), Err(_)) => Err(a),
+        })
+        .unwrap_or_else(|| Err("no start".to_string()))
+    }
+
+    /// The candidates on top of this model: each remaining effect's model and its starts.
+    /// `ripple`: the data is switched, so an averaged model may add `switching_ripple`.
+    fn extensions(&self, nominal: &Params, ripple: bool, io_mean: f64) -> Vec<Extension> {
+        let has = |n: &str| self.effects.contains(&n);
+        let mut out = Vec::new();
+        if ripple && !self.switched {
+            let s = Stack { switched: true, ..self.clone() };
+            out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], probe: self.params, extra: 0, not_nested: true });
+        }
+        if self.switched && !has("switch_resistance") && !self.free.contains(&Free::SwitchResistance) {
+            let mut s = self.clone();
+            s.free.push(Free::SwitchResistance);
+            let starts = SWITCH_RESISTANCE_STARTS.iter().map(|&r| Params { switch_resistance: r, ..self.params }).collect();
+            let probe = Params { switch_resistance: self.params.switch_resistance + PROBE_RESISTANCE, ..self.params };
+            out.push(Extension { name: "switch_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+        }
+        // An extra resistance in series with L (conducting always: a diode buck's low side too).
+        if !self.free.contains(&Free::RL) && !has("switch_resistance") {
+            let mut s = self.clone();
+            s.free.push(Free::RL);
+            let starts = RESISTANCE_STARTS.iter().map(|r| Params { rl: self.params.rl + r, ..self.params }).collect();
+            let probe = Params { rl: self.params.rl + PROBE_RESISTANCE, ..self.params };
+            out.push(Extension { name: "switch_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+        }
+        if !has("param_drift") {
+            for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
+                let mut s = self.clone();
+                s.free.push(f);
+                let starts = DRIFT_STARTS
+                    .iter()
+                    .map(|k| {
+                        let mut p = self.params;
+                        f.set(&mut p, k * f.get(nominal));
+                        p
+                    })
+                    .collect();
+                let mut probe = self.params;
+                f.set(&mut probe, f.get(&self.params) * (1.0 + PROBE_DRIFT));
+                out.push(Extension { name: "param_drift", stack: s, starts, probe, extra: 1, not_nested: false });
+            }
+        }
+        if self.delay == 0 {
+            for n in 1..=2 {
+                let s = Stack { delay: n, ..self.clone() };
+                out.push(Extension { name: "delay", stack: s, starts: vec![self.params], probe: self.params, extra: 1, not_nested: true });
+            }
+        }
+        if !self.switched {
+            return out;
+        }
+        let diode = has("diode_drop") || has("dcm");
+        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
+            let mut s = self.clone();
+            s.params.dcm |= e.dcm;
+            for &(f, v) in e.extra {
+                // The saturation current starts half an amp above the mean load current.
+                f.set(&mut s.params, if v.is_nan() { io_mean.abs() + 0.5 } else { v });
+                s.free.push(f);
+            }
+            let mut starts = vec![s.params];
+            if let Some(&(f, _)) = e.extra.first() {
+                starts.extend(e.also_from.iter().map(|&v| {
+                    let mut q = s.params;
+                    f.set(&mut q, v);
+                    q
+                }));
+            }
+            out.push(Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm });
+        }
+        out
+    }
+}
+
+/// One effect on top of a model: the extended model and its start values.
+struct Extension {
+    name: &'static str,
+    stack: Stack,
+    starts: Vec<Params>,
+    /// Circuit values a small way into the effect, for the screen's direction.
+    probe: Params,
+    extra: usize,
+    not_nested: bool,
+}
+
+impl Extension {
+    /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
+    fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, String> {
+        let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
+        let estimate = |f: Free| cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()));
+        let mut params = BTreeMap::new();
+        let mut ci95 = BTreeMap::new();
+        let mut drift = None;
+        let added = &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..];
+        match self.name {
+            "switching_ripple" => {}
+            "switch_resistance" if self.stack.switched => {
+                let e = estimate(Free::SwitchResistance)?;
+                params.insert("switch_resistance".to_string(), e.value);
+                ci95.insert("switch_resistance".to_string(), [e.ci95.0, e.ci95.1]);
+            }
+            "switch_resistance" => {
+                let e = estimate(Free::RL)?;
+                let base = self.starts[0].rl - RESISTANCE_STARTS[0];
+                // In the switched circuit the switches' own resistance is the other form.
+                let key = if self.stack.switched { "series_resistance" } else { "switch_resistance" };
+                params.insert(key.to_string(), e.value - nominal.rl);
+                ci95.insert(key.to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl]);
+                if e.value <= base {
+                    return Err(format!("the fitted series resistance {:.4e} Ω is not above the model's {base:.4e} Ω: none is added", e.value));
+                }
+            }
+            "param_drift" => {
+                let f = *added.first().ok_or("param_drift frees nothing")?;
+                let e = estimate(f)?;
+                params.insert(f.name().to_string(), e.value);
+                params.insert(format!("{}_nominal", f.name()), f.get(nominal));
+                ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+                drift = Some(e.value / f.get(nominal) - 1.0);
+            }
+            "delay" => {
+                params.insert("delay".to_string(), self.stack.delay as f64);
+            }
+            name => {
+                for &f in added {
+                    let e = estimate(f)?;
+                    params.insert(f.name().to_string(), e.value);
+                    ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+                }
+                if name == "dcm" {
+                    params.insert("dcm".to_string(), 1.0);
+                }
+            }
+        }
+        Ok(Trial { cand, params, ci95, extra: self.extra, not_nested: self.not_nested, drift })
+    }
+}
+
+/// The significant, material effect with the lowest Akaike criterion, a drift within tolerance
+/// included: when that drift explains best, the data is consistent with the nominal values
+/// and no other effect should be named in its place.
+pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) -> &EffectFit) -> Option<T> {
+    items.filter(|t| fit(t).significant && fit(t).material).min_by(|a, b| fit(a).aic.total_cmp(&fit(b).aic))
+}
+
+/// Held-out residual RMS of a fit.
+fn against_rms(c: &Candidate) -> f64 {
+    crate::candidates::rms(&crate::candidates::residual(c))
+}
+
+/// Residual variance of a fit on the estimation part.
+fn variance_of(c: &Candidate) -> f64 {
+    c.fit.sigma[0].powi(2)
+}
+
+/// Least share of the gap above the floor that an extension must promise, linearized, to be
+/// fitted (below the material share: the linearization is rough far from its start).
+const SCREEN_SHARE: f64 = 0.1;
+
+/// Most extensions fitted per step, the most promising first (each fit costs a simulation per
+/// parameter per iteration).
+const SCREEN_KEEP: usize = 3;
+
+/// Keeps the extensions worth a nonlinear fit on switched data (at most [`SCREEN_KEEP`], the
+/// largest promised drop first): the score (Lagrange
+/// multiplier) test of each at its start, from one simulation each. The residual of the model
+/// so far is regressed on its own sensitivities (finite differences in `ln θ`) and on the
+/// extension's direction (its simulation at the start values less the model's); the drop in the
+/// squared error the direction adds, over the noise variance `sigma2`, is χ²₁ when the
+/// extension explains nothing. Kept when significant at 1 % and promising at least
+/// [`SCREEN_SHARE`] of the estimation gap power `gap_power` above the floor [V²].
+fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64, gap_power: f64, n_est: usize) -> Vec<Extension> {
+    use estimator::simulated::{BURN_IN, simulate};
+    use nalgebra::{DMatrix, DVector};
+    let est = stack.data(data).slice(0..n_est);
+    let v0 = est.vout[0];
+    let run = |p: &Params, d: &DataSet| simulate(p, d, v0).ok().map(|y| DVector::from_vec(y[BURN_IN..].to_vec()));
+    let Some(y0) = run(&stack.params, &est) else { return extensions };
+    let r = DVector::from_vec(est.vout[BURN_IN..].to_vec()) - &y0;
+    let mut columns = Vec::new();
+    for f in &stack.free {
+        let mut p = stack.params;
+        f.set(&mut p, f.get(&stack.params) * 1e-3f64.exp());
+        match run(&p, &est) {
+            Some(y) => columns.push((y - &y0) / 1e-3),
+            None => return extensions,
+        }
+    }
+    let a = DMatrix::from_columns(&columns);
+    let Some(inv) = (a.transpose() * &a).try_inverse() else { return extensions };
+    let project = |v: &DVector<f64>| v - &a * (&inv * (a.transpose() * v));
+    let r_perp = project(&r);
+    let limit = estimator::validate::chi2_99(1);
+    let rows = r.len() as f64;
+    let mut promising: Vec<(f64, Extension)> = extensions
+        .into_par_iter()
+        .filter_map(|x| {
+            let own = if x.stack.delay == stack.delay { est.clone() } else { x.stack.data(data).slice(0..n_est) };
+            // An extension the simulator cannot run at its probe is fitted anyway (its fit decides).
+            let Some(y) = run(&x.probe, &own) else { return Some((f64::INFINITY, x)) };
+            let s = project(&(y - &y0));
+            let ss = s.norm_squared();
+            if ss <= 0.0 {
+                return None;
+            }
+            let drop = s.dot(&r_perp).powi(2) / ss;
+            (drop / sigma2 > limit && drop / rows >= SCREEN_SHARE * gap_power).then_some((drop, x))
+        })
+        .collect();
+    promising.sort_by(|a, b| b.0.total_cmp(&a.0));
+    promising.into_iter().take(SCREEN_KEEP).map(|(_, x)| x).collect()
+}
+
+/// Why the sequence ended.
+///
+/// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
+/// in the data (so an averaged model may add it).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn forward(
+    data: &DataSet,
+    nominal: &Params,
+    first: &EffectFit,
+    switched_nominal: bool,
+    switched_data: bool,
+    n_est: usize,
+    holdout: f64,
+    baseline: &Baseline,
+) -> (Vec<EffectFit>, String) {
+    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
+    let mut selected = vec![first.clone()];
+    let mut stack = match Stack::of(&[first], nominal, first.cl.estimate, switched_nominal) {
+        Ok(s) => s,
+        Err(e) => return (selected, format!("no further step: {e}")),
+    };
+    let material = |rms: f64| baseline.floor.is_none_or(|f| gap_material(rms, baseline.held_out, f, baseline.floor_samples));
+    loop {
+        let last = selected.last().map_or(f64::NAN, |e| e.rms_after);
+        if !material(last) {
+            return (selected, "the gap left is within the noise floor".to_string());
+        }
+        if selected.len() >= MAX_EFFECTS {
+            return (selected, format!("{MAX_EFFECTS} effects selected, the most a sequence holds"));
+        }
+        // The model so far, refitted in the form its extensions take.
+        let against = match stack.fit(data, &[stack.params], n_est, holdout) {
+            Ok(c) => c,
+            Err(e) => return (selected, format!("the model so far cannot be refitted: {e}")),
+        };
+        stack.params = against.fit.params;
+        let mut extensions = stack.extensions(nominal, switched_data, io_mean);
+        if stack.switched {
+            let gap_power = baseline.floor.map_or(0.0, |f| against_rms(&against).powi(2) - f * f).max(0.0);
+            extensions = screen(data, &stack, extensions, variance_of(&against), gap_power, n_est);
+        }
+        let trials: Vec<(usize, EffectFit, Candidate)> = extensions
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, x)| x.trial(data, nominal, n_est, holdout).ok().map(|t| (i, t)))
+            .map(|(i, t)| {
+                let (fit, cand) = judge(extensions[i].name, t, &against, n_est, baseline);
+                (i, fit, cand)
+            })
+            .collect();
+        let Some((i, fit, cand)) = best_material(trials.into_iter(), |t| &t.1) else {
+            return (selected, "no further effect is a finding".to_string());
+        };
+        if !fit.finding {
+            return (selected, format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN)));
+        }
+        stack = Stack { params: cand.fit.params, ..extensions[i].stack.clone() };
+        selected.push(fit);
+        at_final_values(&mut selected, &cand, nominal);
+    }
+}
+
+/// Sets every selected effect's parameters (and CI95) to their values in the final model, where
+/// they are fitted together (a diode drop found first absorbs a series resistance found later).
+fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nominal: &Params) {
+    for e in selected.iter_mut() {
+        let keys: Vec<String> = e.ci95.keys().cloned().collect();
+        for key in keys {
+            let (name, offset) = match key.as_str() {
+                "series_resistance" => ("RL", nominal.rl),
+                "switch_resistance" if last.fit.estimate("switch_resistance").is_none() => ("RL", nominal.rl),
+                k => (k, 0.0),
+            };
+            let Some(est) = last.fit.estimate(name) else { continue };
+            e.params.insert(key.clone(), est.value - offset);
+            e.ci95.insert(key.clone(), [est.ci95.0 - offset, est.ci95.1 - offset]);
+            if let Some(nominal_value) = e.params.get(&format!("{key}_nominal")).copied() {
+                e.drift_percent = Some(100.0 * (est.value / nominal_value - 1.0));
+            }
+        }
+    }
+}
