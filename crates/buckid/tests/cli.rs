@@ -295,3 +295,22 @@ fn identify_with_a_resistive_load_from_the_fmu_and_from_a_file() {
     let (lo, hi) = (j["cl"]["ci95"][0].as_f64().unwrap(), j["cl"]["ci95"][1].as_f64().unwrap());
     assert!(lo <= 2.2e-6 && 2.2e-6 <= hi, "CI95 [{lo:e}, {hi:e}]");
 }
+
+/// `diagnose` on clean switched data with a resistive load (`# rload = 5`): the nominal it
+/// builds from the metadata carries the resistor, so there is nothing to explain (`none`) and
+/// the final Cl's interval covers the truth.
+#[test]
+fn diagnose_takes_the_resistive_load_from_the_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Params { cl: 4.7e-6, rload: 5.0, ..Params::default() };
+    let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 1500, noise_vout: 2e-3, ..Experiment::default() }).unwrap();
+    let path = dir.path().join("rload.csv");
+    data.write_csv(&path).unwrap();
+    let out = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", path.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert_eq!(j["verdict"], "none", "{}", String::from_utf8_lossy(&o.stdout));
+    let cl = j["gap_before"]["cl"].as_f64().unwrap();
+    assert!((cl / 4.7e-6 - 1.0).abs() < 0.01, "nominal fit's Cl {cl:e}");
+}
