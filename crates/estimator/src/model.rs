@@ -10,6 +10,10 @@
 //! per distinct duty for the sampled-data PWM and exact models), together with the derivatives of
 //! `F, G, H, D` with respect to the free circuit parameters (log-parameterized): analytic for
 //! the averaged, PWM and reduced models, central finite differences for the exact model.
+//!
+//! A load resistor (`Params::rload`, a known value) is in every structure: the analytic ones
+//! carry `−vo/(rload·Cl)` at the output node (so `∂A/∂ln Cl` includes it), the exact and
+//! simulated ones get it from the plant simulator.
 use buck_model::lti::{Discrete, Lti};
 use buck_model::variables::VarId;
 use buck_model::{Converter, Mode, Params, State};
