@@ -562,7 +562,8 @@ fn rload_dc_gain_is_the_resistive_divider() {
 }
 
 /// The switched circuit with a load resistor against the RK4 node-form reference (KCL with the
-/// resistor at the node), alone and with `load_esr`, `esl`, switch resistance and saturation.
+/// resistor at the node), alone and with `load_esr`, `esl`, switch resistance, saturation and
+/// DC bias.
 #[test]
 fn rload_matches_fine_integration() {
     compare_with_reference(Params { rload: 2.0, ..Params::default() }, 1.0, "rload 2");
@@ -572,6 +573,8 @@ fn rload_matches_fine_integration() {
     compare_with_reference(p, 0.5, "rload + esl + load_esr + switch_resistance");
     let p = Params { rload: 4.0, inductor_saturation: 0.3, isat: 1.8, ..Params::default() };
     compare_with_reference(p, 0.2, "rload + inductor_saturation");
+    let p = Params { rload: 6.0, cap_dc_bias: 0.5, cap_rated_voltage: 6.3, cl: 4.7e-6, ..Params::default() };
+    compare_with_reference(p, 0.3, "rload + cap_dc_bias");
 }
 
 /// The resistor damps the LC: the averaged `A` with `rload` has the characteristic polynomial
