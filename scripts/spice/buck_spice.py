@@ -554,9 +554,10 @@ def _load_capacitor(node, Cl, vo0, dc_bias, rated_voltage):
     ])
 
 
-def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias=0.0, cap_rated_voltage=16.0):
+def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias=0.0, cap_rated_voltage=16.0,
+                    rload=0.0):
     """The output capacitors: C with its ESR Rc (and ESL) to node vc, Cl (with its ESR and its
-    DC-bias loss) at out."""
+    DC-bias loss) at out; a load resistor rload from out to 0 beside Iload (0: none)."""
     lines = []
     if esl > 0:
         lines += [f"Rc1   out nrc  {_num(Rc)}", f"Lc    nrc vc   {_num(esl)} IC=0"]
@@ -568,6 +569,8 @@ def _output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias=0.0, cap_rat
         lines.append(f"Rcl   out ncl  {_num(load_esr)}")
         node = "ncl"
     lines.append(_load_capacitor(node, Cl, vo0, cap_dc_bias, cap_rated_voltage))
+    if rload > 0:
+        lines.append(f"Rload out 0    {_num(rload)}")
     return "\n".join(lines)
 
 
@@ -575,7 +578,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
              io=1.0, x0=None, workdir=None, max_step=None, edge=10e-12, circuit="ideal",
              dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
              diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0,
-             inductor_saturation=0.0, isat=10.0, cap_dc_bias=0.0, cap_rated_voltage=16.0):
+             inductor_saturation=0.0, isat=10.0, cap_dc_bias=0.0, cap_rated_voltage=16.0,
+             rload=0.0):
     """Simulate a buck converter in ngspice for len(duty) periods.
 
     duty: per-period duty d_k in [0, 1].  circuit: "ideal" (ideal switch
@@ -597,7 +601,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     lost while |il| > isat; cap_dc_bias: fraction of Cl lost at cap_rated_voltage,
     Cl(v) = Cl*(1 - cap_dc_bias*min((v/cap_rated_voltage)^2, 1)) with v across Cl
     itself; both incremental, as in the plant's Params (any circuit; 0 leaves the
-    linear element).
+    linear element).  rload: load resistance from out to 0 beside Iload [ohm]
+    (0 leaves it out; the start point accounts for its current).
 
     Real circuits only: dead_time (sync: both gates off before each turn-on),
     rds_on (MOSFET on-resistance at Vgs = v_drive, see mosfet_params),
@@ -619,8 +624,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         raise ValueError("duty must be a non-empty sequence of values in [0, 1]")
     if warmup < 0:
         raise ValueError("warmup must be >= 0")
-    if min(L, C, Rc, Cl, fs, edge) <= 0 or min(RL, load_esr, esl) < 0:
-        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL, load_esr, esl >= 0")
+    if min(L, C, Rc, Cl, fs, edge) <= 0 or min(RL, load_esr, esl, rload) < 0:
+        raise ValueError("L, C, Rc, Cl, fs, edge must be > 0 and RL, load_esr, esl, rload >= 0")
     if not (0 <= inductor_saturation < 1 and isat > 0):
         raise ValueError("inductor_saturation must be in [0, 1) and isat > 0")
     if not (0 <= cap_dc_bias < 1 and cap_rated_voltage > 0):
@@ -639,9 +644,16 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     vsw0 = 0.0
     if x0 is None:
         if real:
-            il0, vc0, vo0, vsw0 = dc_point(circuit, duty[0], L=L, RL=RL, fs=fs, U=U, io=io,
-                                           dead_time=dead_time, rds_on=rds_on, diode=diode,
-                                           mosfet=mosfet)
+            # A load resistor draws vo/rload more: a few fixed-point passes on the output.
+            io_dc = io
+            for _ in range(4 if rload > 0 else 1):
+                il0, vc0, vo0, vsw0 = dc_point(circuit, duty[0], L=L, RL=RL, fs=fs, U=U, io=io_dc,
+                                               dead_time=dead_time, rds_on=rds_on, diode=diode,
+                                               mosfet=mosfet)
+                io_dc = io + (vo0 / rload if rload > 0 else 0.0)
+        elif rload > 0:
+            v0 = (duty[0] * U - RL * io) * rload / (rload + RL)
+            il0, vc0, vo0 = io + v0 / rload, v0, v0
         else:
             v0 = duty[0] * U - RL * io
             il0, vc0, vo0 = io, v0, v0
@@ -657,7 +669,7 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     inductor = _inductor(L, il0, inductor_saturation, isat, None if real else SATURATION_TRTOL)
     common = dict(inductor=inductor, RL=_num(RL), io=_num(io),
                   output_network=_output_network(C, Rc, Cl, load_esr, esl, vc0, vo0, cap_dc_bias,
-                                                 cap_rated_voltage),
+                                                 cap_rated_voltage, rload),
                   max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw")
     if not real:
         netlist = template.substitute(
@@ -777,6 +789,8 @@ def main(argv=None):
     p.add_argument("--U", type=float, default=12.0)
     p.add_argument("--load-esr", type=float, default=0.0, help="series resistance of Cl [ohm]")
     p.add_argument("--esl", type=float, default=0.0, help="series inductance of the C branch [H]")
+    p.add_argument("--rload", type=float, default=0.0,
+                   help="load resistance from out to 0 beside the load current [ohm] (0 = none)")
     p.add_argument("--inductor-saturation", type=float, default=0.0,
                    help="fraction of L lost while |il| > isat")
     p.add_argument("--isat", type=float, default=10.0,
@@ -804,7 +818,7 @@ def main(argv=None):
     r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit,
                  warmup=a.warmup, load_esr=a.load_esr, esl=a.esl,
                  inductor_saturation=a.inductor_saturation, isat=a.isat, cap_dc_bias=a.cap_dc_bias,
-                 cap_rated_voltage=a.cap_rated_voltage, **real, **params)
+                 cap_rated_voltage=a.cap_rated_voltage, rload=a.rload, **real, **params)
     if a.time:
         print(f"wall time (ngspice + parsing): {_time.perf_counter() - t0:.3f} s "
               f"for {len(duty)} + {a.warmup} warm-up periods ({a.circuit})", file=sys.stderr)
@@ -814,6 +828,8 @@ def main(argv=None):
             ("io", np.full(n, a.io)), ("vout", r["vout_start"]), ("il", r["il_start"]),
             ("vc", r["vc_start"]), ("vout_avg", r["vout_avg"]), ("il_avg", r["il_avg"])]
     lines = [f"# {k} = {params[k]!r}" for k in ("fs", "L", "RL", "C", "Rc", "Cl", "U", "io")]
+    if a.rload > 0:
+        lines.append(f"# rload = {a.rload!r}")
     lines.append(f"# circuit = {a.circuit}")
     if a.circuit == "ideal":
         lines.append("# source = ngspice ideal switch")
@@ -833,7 +849,7 @@ def main(argv=None):
         t = truth(a.circuit, duty0=float(duty[0]), L=a.L, RL=a.RL, fs=a.fs, U=a.U, io=a.io, **real)
         t["warmup"] = a.warmup
         # The circuit values simulated, Cl included: the answer an identification is checked against.
-        t["params"] = params
+        t["params"] = dict(params, **({"rload": a.rload} if a.rload > 0 else {}))
         with open(a.truth, "w") as f:
             json.dump(t, f, indent=2)
             f.write("\n")

@@ -56,6 +56,27 @@ def test_fmu_output_network_effects_match_ngspice(fmu_dir, model_description, ef
 
 
 @needs_ngspice
+@pytest.mark.parametrize("cl, effect", [
+    (0.47e-6, {"rload": 2.0}),
+    (47e-6, {"rload": 10.0}),
+    (4.7e-6, {"rload": 5.0, "load_esr": 0.02}),
+    (4.7e-6, {"rload": 3.0, "load_esr": 0.01, "esl": 1e-9}),
+])
+def test_fmu_resistive_load_matches_ngspice(fmu_dir, model_description, cl, effect):
+    # A load resistor from out to 0 beside Iload (io = 0.5 A) in the netlist against the FMU's
+    # `rload` (with load_esr it sits at the node, across the series Cl + ESR branch, in both);
+    # 600 PRBS periods, both starting at the averaged DC point with the resistor.
+    io = 0.5
+    duty = buck_spice.prbs_duty(600, bit_periods=8, low=0.4, high=0.6, seed=3)
+    spice = buck_spice.simulate(duty, Cl=cl, io=io, **effect)
+    plain = buck_spice.simulate(duty, Cl=cl, io=io, **{k: v for k, v in effect.items() if k != "rload"})
+    assert_fmu_matches(fmu_dir, model_description, f"vs-ngspice-rload-{cl}-{sorted(effect)}", duty, cl, io,
+                       spice, effect)
+    # Not vacuous: the resistor's current moves the output by far more than the tolerance.
+    assert np.abs(spice["vout_avg"] - plain["vout_avg"]).max() > 0.05
+
+
+@needs_ngspice
 @pytest.mark.parametrize("effect, vout_tol, il_tol", [
     # isat = io + 0.3 A: the PRBS swings il from -8.8 A to +7.4 A, through both +-isat, so
     # both inductances are visited every few periods. The netlist's step in L is found by

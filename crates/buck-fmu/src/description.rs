@@ -31,7 +31,7 @@ pub fn model_description() -> md::ModelDescription {
         guid: variables::guid(),
         description: Some(
             "Buck DC-DC converter (BMR450 thesis power stage): L with RL, C with ESR Rc, load capacitor Cl, \
-             constant load current; exact averaged or switched PWM"
+             constant load current and an optional load resistor; exact averaged or switched PWM"
                 .into(),
         ),
         generation_tool: Some(format!("buckid {}", env!("CARGO_PKG_VERSION"))),

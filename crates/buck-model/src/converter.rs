@@ -324,10 +324,9 @@ impl Converter {
     /// loop the operating point is the one where `vout = vref`, and the controller starts there.
     pub fn initialize(&mut self) {
         let Inputs { duty, io, vin, vref, .. } = self.inputs;
-        let r = self.params.rl + self.params.switch_resistance;
         let d0 = match self.digital.control {
             Control::Open => duty,
-            Control::Closed if vin > 0.0 => ((vref + r * io) / vin).clamp(0.0, 1.0),
+            Control::Closed if vin > 0.0 => self.params.duty_for(vref, vin, io).clamp(0.0, 1.0),
             Control::Closed => 0.0,
         };
         let x0 = if self.start_at_steady_state { self.params.steady_state(d0, vin, io) } else { [0.0; 3] };
@@ -413,6 +412,7 @@ impl Converter {
             VarId::Isat => p.isat,
             VarId::CapDcBias => p.cap_dc_bias,
             VarId::CapRatedVoltage => p.cap_rated_voltage,
+            VarId::Rload => p.rload,
         }
     }
 
@@ -448,6 +448,7 @@ impl Converter {
                     VarId::Isat => p.isat = value,
                     VarId::CapDcBias => p.cap_dc_bias = value,
                     VarId::CapRatedVoltage => p.cap_rated_voltage = value,
+                    VarId::Rload => p.rload = value,
                     VarId::Kp => d.kp = value,
                     VarId::Ki => d.ki = value,
                     VarId::Kd => d.kd = value,

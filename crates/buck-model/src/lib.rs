@@ -1,5 +1,6 @@
 //! Buck converter physics: the thesis circuit (inductor with series resistance, output
-//! capacitor with ESR, load capacitor `Cl`, constant load current), integrated exactly.
+//! capacitor with ESR, load capacitor `Cl`, constant load current and an optional load resistor
+//! `rload` at the output node), integrated exactly.
 //!
 //! The circuit is linear between switching events, so every piece is solved with a matrix
 //! exponential ([`lti`]) instead of a time-stepping integrator: the fast `Rc·Cl` mode (20 ns

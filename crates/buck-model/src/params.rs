@@ -1,5 +1,6 @@
 use serde::{Deserialize, Serialize};
 
+use crate::ModelError;
 use crate::lti::Lti;
 
 /// Circuit parameters of the buck power stage (SI units). Defaults are the BMR450 thesis values
@@ -49,6 +50,10 @@ pub struct Params {
     pub cap_dc_bias: f64,
     /// Rated voltage of `Cl` for `cap_dc_bias` [V].
     pub cap_rated_voltage: f64,
+    /// Load resistance from the output node `vout` to ground [Ω], drawing `vout/rload` beside
+    /// the load current `io`; 0 means no resistor (the ideal current-load circuit, bit for bit).
+    /// With `load_esr` it sits at the node, across the series `Cl` + ESR branch. Both modes.
+    pub rload: f64,
 }
 
 /// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
@@ -74,6 +79,7 @@ impl Default for Params {
             isat: 10.0,
             cap_dc_bias: 0.0,
             cap_rated_voltage: 16.0,
+            rload: 0.0,
         }
     }
 }
@@ -90,6 +96,40 @@ pub enum Mode {
 }
 
 impl Params {
+    /// Checks every value against its variable's range in the table (e.g. a negative or NaN
+    /// `rload`, a non-positive `Cl`): the error names the variable and the range.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        use crate::variables::{VarId, by_vr, vr};
+        let reals = [
+            (VarId::L, self.l),
+            (VarId::Rl, self.rl),
+            (VarId::C, self.c),
+            (VarId::Rc, self.rc),
+            (VarId::Cl, self.cl),
+            (VarId::Fs, self.fs),
+            (VarId::SwitchResistance, self.switch_resistance),
+            (VarId::DiodeDrop, self.diode_drop),
+            (VarId::DeadTime, self.dead_time),
+            (VarId::LoadEsr, self.load_esr),
+            (VarId::Esl, self.esl),
+            (VarId::InductorSaturation, self.inductor_saturation),
+            (VarId::Isat, self.isat),
+            (VarId::CapDcBias, self.cap_dc_bias),
+            (VarId::CapRatedVoltage, self.cap_rated_voltage),
+            (VarId::Rload, self.rload),
+        ];
+        for (id, value) in reals {
+            let var = by_vr(vr(id)).ok_or(ModelError::UnknownReference { vr: vr(id), kind: "Real" })?;
+            var.check_real(value)?;
+        }
+        Ok(())
+    }
+
+    /// Conductance of the load resistor `1/rload` [S], 0 without one (`rload = 0`).
+    pub fn load_conductance(&self) -> f64 {
+        if self.rload > 0.0 { 1.0 / self.rload } else { 0.0 }
+    }
+
     /// Switching period `T = 1/fs` [s].
     pub fn period(&self) -> f64 {
         1.0 / self.fs
@@ -153,9 +193,16 @@ impl Params {
     /// Cl dvcl/dt = il − ic − io
     /// Lc dic/dt  = vn − Rc·ic − vc
     /// ```
+    ///
+    /// A load resistor (`rload > 0`, conductance `G`) at the node draws `G·vn` beside `io`; the
+    /// node voltage then follows from KCL at the node ([`Params::vout_map`]), `Cl` takes
+    /// `icl = il − io − G·vn − (vn − vc)/Rc` (without `esl`) or `il − ic − io − G·vn` (with it).
+    /// Without the resistor the matrices are built exactly as before it existed.
     pub fn piece_lti(&self, r: f64, l: f64, cl: f64, blocked: bool) -> Lti {
         let Self { c, rc, load_esr: re, esl, .. } = *self;
-        let mut lti = if esl > 0.0 {
+        let mut lti = if self.rload > 0.0 {
+            self.resistive_piece_lti(r, l, cl)
+        } else if esl > 0.0 {
             // vn = [re, 0, 1, −re]·x − re·io
             Lti::new(
                 4,
@@ -199,10 +246,69 @@ impl Params {
         lti
     }
 
+    /// [`Params::piece_lti`] with a load resistor, from the node map `vn = cv·x + dv·io`.
+    fn resistive_piece_lti(&self, r: f64, l: f64, cl: f64) -> Lti {
+        let Self { c, rc, esl, .. } = *self;
+        let g = self.load_conductance();
+        let ([c0, c1, c2, c3], dv) = self.vout_map();
+        if esl > 0.0 {
+            // L dil = u − r·il − vn, C dvc = ic, Cl dvcl = il − ic − io − G·vn,
+            // Lc dic = vn − Rc·ic − vc.
+            Lti::new(
+                4,
+                2,
+                &[
+                    (-r - c0) / l, -c1 / l, -c2 / l, -c3 / l, //
+                    0.0, 0.0, 0.0, 1.0 / c, //
+                    (1.0 - g * c0) / cl, -g * c1 / cl, -g * c2 / cl, (-1.0 - g * c3) / cl, //
+                    c0 / esl, (c1 - 1.0) / esl, c2 / esl, (c3 - rc) / esl,
+                ],
+                &[
+                    1.0 / l, -dv / l, //
+                    0.0, 0.0, //
+                    0.0, (-1.0 - g * dv) / cl, //
+                    0.0, dv / esl,
+                ],
+            )
+        } else {
+            // L dil = u − r·il − vn, C dvc = (vn − vc)/Rc,
+            // Cl dvcl = il − io + vc/Rc − (G + 1/Rc)·vn.
+            let k = g + 1.0 / rc;
+            Lti::new(
+                3,
+                2,
+                &[
+                    (-r - c0) / l, -c1 / l, -c2 / l, //
+                    c0 / (rc * c), (c1 - 1.0) / (rc * c), c2 / (rc * c), //
+                    (1.0 - k * c0) / cl, (1.0 / rc - k * c1) / cl, -k * c2 / cl,
+                ],
+                &[
+                    1.0 / l, -dv / l, //
+                    0.0, dv / (rc * c), //
+                    0.0, (-1.0 - k * dv) / cl,
+                ],
+            )
+        }
+    }
+
     /// The output (node) voltage `vout = cx·x + d_io·io` of [`Params::piece_lti`]'s states:
     /// `(cx, d_io)`, `cx` padded with zeros to 4 entries.
+    ///
+    /// With a load resistor (conductance `G`), KCL at the node gives, without `esl`,
+    /// `vn = (vcl + re·(il − io) + (re/Rc)·vc)/(1 + re/Rc + re·G)`, and with `esl`
+    /// `vn = (vcl + re·(il − ic − io))/(1 + re·G)`; with `load_esr = re = 0` both are `vcl`.
     pub fn vout_map(&self) -> ([f64; 4], f64) {
         let Self { rc, load_esr: re, esl, .. } = *self;
+        if self.rload > 0.0 {
+            let g = self.load_conductance();
+            return if esl > 0.0 {
+                let k = 1.0 / (1.0 + re * g);
+                ([k * re, 0.0, k, -k * re], -k * re)
+            } else {
+                let k = 1.0 / (1.0 + re / rc + re * g);
+                ([k * re, k * re / rc, k, 0.0], -k * re)
+            };
+        }
         if esl > 0.0 {
             ([re, 0.0, 1.0, -re], -re)
         } else {
@@ -216,11 +322,13 @@ impl Params {
     /// ```text
     /// L  dil/dt = u_sw − RL·il − vo
     /// C  dvc/dt = (vo − vc)/Rc
-    /// Cl dvo/dt = il − io − (vo − vc)/Rc
+    /// Cl dvo/dt = il − io − vo/rload − (vo − vc)/Rc
     /// ```
+    ///
+    /// The `vo/rload` term is there only with a load resistor (`rload > 0`).
     pub fn full_lti(&self) -> Lti {
         let Self { l, rl, c, rc, cl, .. } = *self;
-        Lti::new(
+        let mut lti = Lti::new(
             3,
             2,
             &[
@@ -233,14 +341,18 @@ impl Params {
                 0.0, 0.0, //
                 0.0, -1.0 / cl,
             ],
-        )
+        );
+        if self.rload > 0.0 {
+            lti.a[(2, 2)] -= self.load_conductance() / cl;
+        }
+        lti
     }
 
     /// The reduced second-order model with the inductor current as an input: states
-    /// `[vc, vo]`, inputs `[il, io]`.
+    /// `[vc, vo]`, inputs `[il, io]` (with `−vo/rload` at the output node when `rload > 0`).
     pub fn reduced_lti(&self) -> Lti {
         let Self { c, rc, cl, .. } = *self;
-        Lti::new(
+        let mut lti = Lti::new(
             2,
             2,
             &[
@@ -251,15 +363,33 @@ impl Params {
                 0.0, 0.0, //
                 1.0 / cl, -1.0 / cl,
             ],
-        )
+        );
+        if self.rload > 0.0 {
+            lti.a[(1, 1)] -= self.load_conductance() / cl;
+        }
+        lti
     }
 
     /// DC operating point `[il, vc, vo]` of the averaged model in continuous conduction:
-    /// `il = io`, `vc = vo = d·vin − (RL + switch_resistance)·io` (no current in the capacitor
-    /// branches, so neither `load_esr` nor `esl` shifts it).
+    /// `il = io + vo/rload`, `vc = vo = (d·vin − r·io)/(1 + r/rload)` with
+    /// `r = RL + switch_resistance` (no current in the capacitor branches, so neither `load_esr`
+    /// nor `esl` shifts it); without a load resistor `il = io`, `vo = d·vin − r·io`.
     pub fn steady_state(&self, duty: f64, vin: f64, io: f64) -> [f64; 3] {
-        let vo = duty * vin - (self.rl + self.switch_resistance) * io;
+        let r = self.rl + self.switch_resistance;
+        if self.rload > 0.0 {
+            let vo = (duty * vin - r * io) * self.rload / (self.rload + r);
+            return [io + vo / self.rload, vo, vo];
+        }
+        let vo = duty * vin - r * io;
         [io, vo, vo]
+    }
+
+    /// Duty of the averaged DC operating point with output `vo` (continuous conduction):
+    /// `(vo + r·(io + vo/rload))/vin`, `r = RL + switch_resistance` [1]; the inverse of
+    /// [`Params::steady_state`], not clamped.
+    pub fn duty_for(&self, vo: f64, vin: f64, io: f64) -> f64 {
+        let r = self.rl + self.switch_resistance;
+        (vo + r * (io + vo * self.load_conductance())) / vin
     }
 }
 

@@ -62,6 +62,19 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
             None => assumed.push(format!("{key} = {:e} (thesis value; give `# {key} = …` to override)", *field(&mut p))),
         }
     }
+    // The load resistor: none (0) unless the FMU or the data names one; its absence is the
+    // contract's default, not an assumption worth a note.
+    let meta = data.rload()?;
+    p.rload = match given.get("rload") {
+        Some(&v) if !(v.is_finite() && v >= 0.0) => bail!("the FMU's start value `rload = {v}` is not a valid load resistance"),
+        Some(&v) => {
+            if (meta - v).abs() > 1e-9 * v.abs() {
+                assumed.push(format!("rload = {v:e} from the FMU (the data's metadata says {meta:e})"));
+            }
+            v
+        }
+        None => meta,
+    };
     Ok((p, assumed))
 }
 
@@ -327,7 +340,7 @@ fn output(
             ccf_statistic: r.ccf_statistic,
             ccf_limit: r.ccf_limit,
         },
-        nominal: [("L", nominal.l), ("RL", nominal.rl), ("C", nominal.c), ("Rc", nominal.rc), ("fs", nominal.fs)]
+        nominal: [("L", nominal.l), ("RL", nominal.rl), ("C", nominal.c), ("Rc", nominal.rc), ("fs", nominal.fs), ("rload", nominal.rload)]
             .into_iter()
             .collect(),
         assumed: assumed.to_vec(),

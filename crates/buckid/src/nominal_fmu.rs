@@ -13,7 +13,7 @@ use fmi2_import::schema::{Causality, VariableType};
 use gap::Nominal;
 
 /// Circuit values read from the FMU's start values when it has variables of these names.
-const CIRCUIT: [&str; 5] = ["L", "RL", "C", "Rc", "fs"];
+const CIRCUIT: [&str; 6] = ["L", "RL", "C", "Rc", "fs", "rload"];
 
 /// An opened FMU and what its model description says about the nominal model.
 pub struct NominalFmu {

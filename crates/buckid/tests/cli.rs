@@ -255,3 +255,62 @@ fn identify_and_diagnose_the_ngspice_fixture() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.lines().any(|l| l.starts_with("Cl ") && l.contains("CI95")), "{stdout}");
 }
+
+/// A resistive load through the CLI: `identify --fmu … --set rload=10` runs our FMU with the
+/// resistor, the recorded data's metadata carries it, the models use it (JSON `nominal.rload`),
+/// and Cl lands inside its CI95; a data file with a constant `rload` column is read the same way.
+#[test]
+fn identify_with_a_resistive_load_from_the_fmu_and_from_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fmu.json");
+    let saved = dir.path().join("saved.csv");
+    let fmu = buck_fmu().to_str().unwrap();
+    let o = buckid(&[
+        "identify", "--fmu", fmu, "--set", "rload=10", "--set", "Cl=4.7e-6", "--samples", "2000", "--noise-vout", "2e-3", "--json", out.to_str().unwrap(),
+        "--save-data", saved.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert_eq!(j["nominal"]["rload"], 10.0);
+    let (cl, lo, hi) = (j["cl"]["estimate"].as_f64().unwrap(), j["cl"]["ci95"][0].as_f64().unwrap(), j["cl"]["ci95"][1].as_f64().unwrap());
+    assert!(lo <= 4.7e-6 && 4.7e-6 <= hi, "Cl {cl:e}, CI95 [{lo:e}, {hi:e}]");
+    assert!(std::fs::read_to_string(&saved).unwrap().contains("# rload = 10"), "the resistor is in the saved metadata");
+
+    // The same circuit from a file whose resistor is a column.
+    let truth = Params { cl: 2.2e-6, rload: 5.0, ..Params::default() };
+    let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 1500, noise_vout: 2e-3, ..Experiment::default() }).unwrap();
+    let text = data.to_csv().replace("# rload = 5\n", "");
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    for (i, line) in lines.iter_mut().enumerate().skip(header) {
+        line.push_str(if i == header { ",rload" } else { ",5" });
+    }
+    let file = dir.path().join("column.csv");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let out = dir.path().join("file.json");
+    let o = buckid(&["identify", "--data", file.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert_eq!(j["nominal"]["rload"], 5.0);
+    let (lo, hi) = (j["cl"]["ci95"][0].as_f64().unwrap(), j["cl"]["ci95"][1].as_f64().unwrap());
+    assert!(lo <= 2.2e-6 && 2.2e-6 <= hi, "CI95 [{lo:e}, {hi:e}]");
+}
+
+/// `diagnose` on clean switched data with a resistive load (`# rload = 5`): the nominal it
+/// builds from the metadata carries the resistor, so there is nothing to explain (`none`) and
+/// the final Cl's interval covers the truth.
+#[test]
+fn diagnose_takes_the_resistive_load_from_the_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Params { cl: 4.7e-6, rload: 5.0, ..Params::default() };
+    let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 1500, noise_vout: 2e-3, ..Experiment::default() }).unwrap();
+    let path = dir.path().join("rload.csv");
+    data.write_csv(&path).unwrap();
+    let out = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", path.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&out);
+    assert_eq!(j["verdict"], "none", "{}", String::from_utf8_lossy(&o.stdout));
+    let cl = j["gap_before"]["cl"].as_f64().unwrap();
+    assert!((cl / 4.7e-6 - 1.0).abs() < 0.01, "nominal fit's Cl {cl:e}");
+}

@@ -1,6 +1,10 @@
 //! Accuracy of the Cl estimate on the thesis grid, without any post-hoc mapping.
 //!
-//! `cargo bench -p estimator --bench accuracy -- [--runs N] [--fmu PATH]`
+//! `cargo bench -p estimator --bench accuracy -- [--runs N] [--fmu PATH] [--rload R]`
+//!
+//! `--rload R` adds a load resistor of R Ω beside the 1 A load current in every plant (the FMU
+//! gets `rload = R`); the models take it from the data's `# rload` metadata, as the CLI does.
+//! The third-party FMUs have no resistor and are skipped then.
 //!
 //! 1. Averaged plant, averaged model, outputs vout and il with σ = 2 mV and 20 mA, 3001
 //!    samples: Monte Carlo over N noise seeds (default 500). Per Cl: the RMS error against the
@@ -14,6 +18,7 @@
 //! 4. The thesis's figures beside ours (docs/thesis-figures.md).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test or benchmark: failing loudly is the point
 use std::path::PathBuf;
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use buck_model::{Mode, Params};
@@ -30,6 +35,17 @@ const OUTPUTS: [Signal; 2] = [Signal::Vout, Signal::Il];
 fn arg(name: &str) -> Option<String> {
     let args: Vec<String> = std::env::args().collect();
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1).cloned())
+}
+
+/// The load resistor of every plant [Ω] (`--rload`, 0 = none).
+fn rload() -> f64 {
+    static RLOAD: OnceLock<f64> = OnceLock::new();
+    *RLOAD.get_or_init(|| arg("--rload").map_or(0.0, |s| s.parse().expect("--rload R: a number of ohms")))
+}
+
+/// The plant's circuit with this Cl [F].
+fn circuit(cl: f64) -> Params {
+    Params { cl, rload: rload(), ..Params::default() }
 }
 
 fn experiment(seed: u64, noisy: bool) -> Experiment {
@@ -50,7 +66,9 @@ struct Outcome {
 }
 
 fn identify(structure: Structure, data: &DataSet, truth: f64) -> Outcome {
-    let f = fit(&model(structure, data), &Params::default(), &FitOptions::default()).expect("fit");
+    // The known circuit: the thesis values and the data's load resistor.
+    let nominal = Params { rload: data.rload().expect("rload metadata"), ..Params::default() };
+    let f = fit(&model(structure, data), &nominal, &FitOptions::default()).expect("fit");
     let e = f.estimate("Cl").expect("Cl");
     Outcome { err: e.value / truth - 1.0, covered: e.ci95.0 <= truth && truth <= e.ci95.1, ci: e.ci95 }
 }
@@ -85,13 +103,16 @@ fn main() {
     // The packaged FMU, rebuilt when stale (its path even when that fails, for the message).
     let fmu = arg("--fmu").map(PathBuf::from).unwrap_or_else(|| fmu_fixture::buck_fmu().map_or_else(|_| fmu_fixture::root().join("fmu/BuckConverter.fmu"), PathBuf::from));
     let start = Instant::now();
+    if rload() > 0.0 {
+        println!("Load: io = 1 A and a load resistor rload = {} Ω in every plant.\n", rload());
+    }
 
     println!("## 1. Averaged plant, averaged model, vout + il (σ = 2 mV, 20 mA), 3001 samples, {runs} Monte Carlo runs\n");
     println!("| Cl [µF] | σ_CRLB [%] | RMS error [%] | RMS / σ_CRLB | mean error [%] | first run / σ_CRLB | CI95 coverage [%] |");
     println!("|---:|---:|---:|---:|---:|---:|---:|");
     let mut worst_cover: (f64, f64) = (100.0, 0.0);
     for cl in GRID_UF {
-        let truth = Params { cl: cl * 1e-6, ..Params::default() };
+        let truth = circuit(cl * 1e-6);
         let mut plant = ModelPlant::new(truth, Mode::Averaged);
         let sigma = crlb_rel(&mut plant, Structure::Averaged, &truth);
         let (first, mean, rms, cover) = monte_carlo(&mut plant, Structure::Averaged, truth.cl, runs);
@@ -118,9 +139,13 @@ fn main() {
     println!("| Cl [µF] | PWM model error [%] | PWM CI95 [µF] | target | averaged model error [%] | PWM RMS error over {mc_runs} runs [%] | PWM σ_CRLB [%] | PWM coverage [%] |");
     println!("|---:|---:|---|---:|---:|---:|---:|---:|");
     for cl in GRID_UF {
-        let truth = Params { cl: cl * 1e-6, ..Params::default() };
+        let truth = circuit(cl * 1e-6);
         let data = if have_fmu {
-            let opts = FmuOptions { set: vec![("Cl".into(), truth.cl), ("mode".into(), 2.0)], ..FmuOptions::default() };
+            let mut set = vec![("Cl".into(), truth.cl), ("mode".into(), 2.0)];
+            if truth.rload > 0.0 {
+                set.push(("rload".into(), truth.rload));
+            }
+            let opts = FmuOptions { set, ..FmuOptions::default() };
             let mut plant = FmuPlant::open(&fmu, &opts).expect("open FMU");
             run(&mut plant, &experiment(1, true)).expect("FMU run")
         } else {
@@ -145,7 +170,11 @@ fn main() {
         );
     }
     println!("\n## 3. Third-party FMUs with a hidden Cl (averaged model, σ = 2 mV / 20 mA, seed 1)\n");
-    third_party(&fmu_fixture::root());
+    if rload() > 0.0 {
+        println!("(skipped with --rload: these FMUs have no load resistor)");
+    } else {
+        third_party(&fmu_fixture::root());
+    }
     println!("\n## 4. The thesis (Osman & Osman, BTH 2011), for comparison\n");
     let thesis = fmu_fixture::root().join("docs/thesis-figures.md");
     match std::fs::read_to_string(&thesis) {

@@ -31,6 +31,9 @@ pub struct DataSet {
     pub meta: BTreeMap<String, String>,
 }
 
+/// Metadata key (and optional constant column) of the load resistance [Ω].
+pub const RLOAD: &str = "rload";
+
 /// Columns of the CSV contract, in the order they are written.
 const COLUMNS: [&str; 8] = ["time", "duty", "vin", "io", "vout", "il", "vout_avg", "il_avg"];
 
@@ -56,6 +59,22 @@ impl DataSet {
             .get(key)
             .map(|v| v.trim().parse::<f64>().map_err(|_| data_err(format!("metadata `{key} = {v}` is not a number"))))
             .transpose()
+    }
+
+    /// Load resistance `rload` [Ω] from the metadata `# rload = R` (a `rload` column is folded
+    /// into it when read): 0 (no resistor) when absent; negative or non-finite values are an
+    /// error.
+    ///
+    /// ```
+    /// let d = estimator::data::DataSet::parse_csv("# rload = 10\n# U = 12\n# io = 0\ntime,duty,vout\n0,0.5,5\n1e-6,0.5,5\n").unwrap();
+    /// assert_eq!(d.rload().unwrap(), 10.0);
+    /// ```
+    pub fn rload(&self) -> Result<f64, EstimatorError> {
+        match self.meta_f64(RLOAD)? {
+            None => Ok(0.0),
+            Some(r) if r >= 0.0 && r.is_finite() => Ok(r),
+            Some(r) => Err(data_err(format!("metadata `{RLOAD} = {r}`: a load resistance must be ≥ 0 Ω (0 = none)"))),
+        }
     }
 
     /// Rows `range` as a new data set (metadata kept).
@@ -119,8 +138,9 @@ impl DataSet {
 
     /// Reads the CSV contract: `# key = value` lines, one header row, SI units; `time` and
     /// `vout` required; `duty`, `vin`, `io`, `il`, `vout_avg`, `il_avg` optional (missing
-    /// `duty`/`vin`/`io` are taken from metadata `duty`, `U`, `io` or are an error); unknown
-    /// columns ignored.
+    /// `duty`/`vin`/`io` are taken from metadata `duty`, `U`, `io` or are an error); a load
+    /// resistance [Ω] from metadata `rload` or a constant `rload` column (see
+    /// [`DataSet::rload`]); unknown columns ignored.
     pub fn read_csv(path: &Path) -> Result<DataSet, EstimatorError> {
         let text = std::fs::read_to_string(path)
             .map_err(|source| EstimatorError::Io { path: path.display().to_string(), source })?;
@@ -161,9 +181,29 @@ impl DataSet {
             }
         }
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
+        let rload_col = index(RLOAD);
+        // A load-resistance column must hold one value (the models take a fixed resistor): it
+        // becomes the `rload` metadata, which it must agree with when both are given.
+        let mut rload: Option<(f64, usize)> = None;
         for (r, record) in reader.records().enumerate() {
             let line = header_line + 1 + r;
             let record = record.map_err(|e| data_err(format!("line {line}: {e}")))?;
+            if let Some(idx) = rload_col {
+                let field = record.get(idx).unwrap_or("");
+                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{RLOAD}` value {field:?} is not a number")))?;
+                if !(value.is_finite() && value >= 0.0) {
+                    return Err(data_err(format!("line {line}: column `{RLOAD}` value {field:?} must be a finite resistance ≥ 0 Ω (0 = none)")));
+                }
+                match rload {
+                    None => rload = Some((value, line)),
+                    Some((first, first_line)) if first != value => {
+                        return Err(data_err(format!(
+                            "line {line}: column `{RLOAD}` is {value} Ω, line {first_line} had {first} Ω: a varying load resistance is not modelled (split the file where it changes)"
+                        )));
+                    }
+                    Some(_) => {}
+                }
+            }
             for (c, idx) in wanted.iter().enumerate() {
                 let Some(idx) = idx else { continue };
                 let field = record.get(*idx).unwrap_or("");
@@ -179,6 +219,17 @@ impl DataSet {
         let n = cols[0].len();
         if n == 0 {
             return Err(data_err("the file has a header but no data rows"));
+        }
+        if let Some((r, line)) = rload {
+            match meta.get(RLOAD).map(|m| (m, m.trim().parse::<f64>())) {
+                Some((_, Ok(m))) if m == r => {}
+                Some((m, _)) => {
+                    return Err(data_err(format!("line {line}: column `{RLOAD}` is {r} Ω but the metadata says `# {RLOAD} = {m}`")));
+                }
+                None => {
+                    meta.insert(RLOAD.to_string(), format!("{r}"));
+                }
+            }
         }
         let mut data = DataSet { meta, ..Default::default() };
         let fill = |c: usize, key: &str, data: &DataSet| -> Result<Vec<f64>, EstimatorError> {
@@ -200,6 +251,7 @@ impl DataSet {
         data.time = std::mem::take(&mut cols[0]);
         data.vout = std::mem::take(&mut cols[4]);
         data.validate()?;
+        data.rload()?;
         Ok(data)
     }
 
@@ -259,6 +311,31 @@ mod tests {
         ];
         for (text, needle) in cases {
             let err = DataSet::parse_csv(text).unwrap_err().to_string();
+            assert!(err.contains(needle), "{text:?}: {err:?} lacks {needle:?}");
+        }
+    }
+
+    #[test]
+    fn rload_comes_from_metadata_or_a_constant_column() {
+        let body = "time,duty,vout\n0,0.4,4.7\n1e-6,0.6,4.8\n";
+        let head = "# U = 12\n# io = 0\n";
+        assert_eq!(DataSet::parse_csv(&format!("{head}{body}")).unwrap().rload().unwrap(), 0.0, "absent: no resistor");
+        assert_eq!(DataSet::parse_csv(&format!("{head}# rload = 10\n{body}")).unwrap().rload().unwrap(), 10.0);
+        let col = "time,duty,vout,rload\n0,0.4,4.7,2.5\n1e-6,0.6,4.8,2.5\n";
+        let d = DataSet::parse_csv(&format!("{head}{col}")).unwrap();
+        assert_eq!(d.rload().unwrap(), 2.5);
+        assert_eq!(DataSet::parse_csv(&d.to_csv()).unwrap().rload().unwrap(), 2.5, "written back as metadata");
+        assert_eq!(DataSet::parse_csv(&format!("{head}# rload = 2.5\n{col}")).unwrap().rload().unwrap(), 2.5);
+        let cases = [
+            (format!("{head}# rload = -1\n{body}"), "rload = -1"),
+            (format!("{head}# rload = abc\n{body}"), "not a number"),
+            (format!("{head}# rload = 3\n{col}"), "metadata says"),
+            (format!("{head}time,duty,vout,rload\n0,0.4,4.7,2\n1e-6,0.6,4.8,3\n"), "line 5: column `rload` is 3"),
+            (format!("{head}time,duty,vout,rload\n0,0.4,4.7,-2\n1e-6,0.6,4.8,-2\n"), "line 4: column `rload`"),
+            (format!("{head}time,duty,vout,rload\n0,0.4,4.7,x\n1e-6,0.6,4.8,2\n"), "line 4: column `rload` value \"x\""),
+        ];
+        for (text, needle) in cases {
+            let err = DataSet::parse_csv(&text).unwrap_err().to_string();
             assert!(err.contains(needle), "{text:?}: {err:?} lacks {needle:?}");
         }
     }

@@ -321,13 +321,17 @@ impl Plant for ModelPlant {
             Mode::Averaged => "averaged",
             Mode::Switched => "switched",
         };
-        vec![
+        let mut meta = vec![
             ("source".into(), format!("buck-model in process ({mode})")),
             ("L".into(), format!("{}", p.l)),
             ("RL".into(), format!("{}", p.rl)),
             ("C".into(), format!("{}", p.c)),
             ("Rc".into(), format!("{}", p.rc)),
-        ]
+        ];
+        if p.rload > 0.0 {
+            meta.push(("rload".into(), format!("{}", p.rload)));
+        }
+        meta
     }
 }
 

@@ -14,7 +14,7 @@ pub const ROLES: [&str; 8] = ["duty", "io", "vin", "vout", "il", "vout_avg", "il
 /// Roles the FMU must have.
 const REQUIRED: [&str; 2] = ["duty", "vout"];
 /// Known circuit values read from the FMU's parameters for the metadata (never `Cl`).
-const DESCRIBED: [&str; 5] = ["L", "RL", "C", "Rc", "fs"];
+const DESCRIBED: [&str; 6] = ["L", "RL", "C", "Rc", "fs", "rload"];
 
 /// How to drive an FMU.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -201,7 +201,8 @@ impl Plant for FmuPlant {
         let mut meta = vec![("source".to_string(), self.source.clone())];
         for name in DESCRIBED {
             let set = self.settings.iter().find(|s| s.3 == name).map(|s| s.2);
-            if let Some(v) = set.or_else(|| real_start(&self.fmu, name)) {
+            // No load resistor (0) is the contract's default: not written.
+            if let Some(v) = set.or_else(|| real_start(&self.fmu, name)).filter(|v| name != "rload" || *v != 0.0) {
                 meta.push((name.to_string(), format!("{v}")));
             }
         }

@@ -103,7 +103,8 @@ impl Identification {
     }
 }
 
-/// Identifies `opts.free` from `data`, with `nominal` holding the known circuit values.
+/// Identifies `opts.free` from `data`, with `nominal` holding the known circuit values
+/// (including the load resistor: take `rload` from [`DataSet::rload`] as the CLI does).
 ///
 /// ```
 /// use buck_model::{Mode, Params};

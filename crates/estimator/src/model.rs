@@ -10,6 +10,10 @@
 //! per distinct duty for the sampled-data PWM and exact models), together with the derivatives of
 //! `F, G, H, D` with respect to the free circuit parameters (log-parameterized): analytic for
 //! the averaged, PWM and reduced models, central finite differences for the exact model.
+//!
+//! A load resistor (`Params::rload`, a known value) is in every structure: the analytic ones
+//! carry `−vo/(rload·Cl)` at the output node (so `∂A/∂ln Cl` includes it), the exact and
+//! simulated ones get it from the plant simulator.
 use buck_model::lti::{Discrete, Lti};
 use buck_model::variables::VarId;
 use buck_model::{Converter, Mode, Params, State};
@@ -204,17 +208,25 @@ impl Free {
     }
 }
 
-/// A matrix entry `coef · L^e0 · RL^e1 · C^e2 · Rc^e3 · Cl^e4`.
+/// A matrix entry `coef · L^e0 · RL^e1 · C^e2 · Rc^e3 · Cl^e4 · G^g`, with `G = 1/rload` the
+/// load conductance (a known value, never free; 0 without a load resistor, which zeroes its
+/// terms and leaves the others as they were).
 #[derive(Debug, Clone, Copy)]
 struct Term {
     row: usize,
     col: usize,
     coef: f64,
     exps: [i32; 5],
+    g: i32,
 }
 
 const fn t(row: usize, col: usize, coef: f64, exps: [i32; 5]) -> Term {
-    Term { row, col, coef, exps }
+    Term { row, col, coef, exps, g: 0 }
+}
+
+/// A term proportional to the load conductance `G`.
+const fn tg(row: usize, col: usize, coef: f64, exps: [i32; 5]) -> Term {
+    Term { row, col, coef, exps, g: 1 }
 }
 
 /// Averaged third-order model `[il, vc, vo]`, inputs `[u_sw, io]` (see `buck_model::Params`).
@@ -226,6 +238,8 @@ const FULL_A: &[Term] = &[
     t(2, 0, 1.0, [0, 0, 0, 0, -1]),
     t(2, 1, 1.0, [0, 0, 0, -1, -1]),
     t(2, 2, -1.0, [0, 0, 0, -1, -1]),
+    // The load resistor at the output node: −vo/(rload·Cl).
+    tg(2, 2, -1.0, [0, 0, 0, 0, -1]),
 ];
 const FULL_B: &[Term] = &[t(0, 0, 1.0, [-1, 0, 0, 0, 0]), t(2, 1, -1.0, [0, 0, 0, 0, -1])];
 /// Reduced model `[vc, vo]`, inputs `[il, io]`.
@@ -234,6 +248,7 @@ const REDUCED_A: &[Term] = &[
     t(0, 1, 1.0, [0, 0, -1, -1, 0]),
     t(1, 0, 1.0, [0, 0, 0, -1, -1]),
     t(1, 1, -1.0, [0, 0, 0, -1, -1]),
+    tg(1, 1, -1.0, [0, 0, 0, 0, -1]),
 ];
 const REDUCED_B: &[Term] = &[t(1, 0, 1.0, [0, 0, 0, 0, -1]), t(1, 1, -1.0, [0, 0, 0, 0, -1])];
 
@@ -244,9 +259,13 @@ fn values(p: &Params) -> [f64; 5] {
 /// Evaluates a term matrix, or its derivative with respect to `ln p[slot]` when `slot` is set.
 fn build(terms: &[Term], rows: usize, cols: usize, p: &Params, slot: Option<usize>) -> DMatrix<f64> {
     let v = values(p);
+    let g = p.load_conductance();
     let mut m = DMatrix::zeros(rows, cols);
     for term in terms {
-        let value = term.coef * term.exps.iter().zip(v).map(|(&e, x)| x.powi(e)).product::<f64>();
+        if term.g != 0 && g == 0.0 {
+            continue;
+        }
+        let value = term.coef * term.exps.iter().zip(v).map(|(&e, x)| x.powi(e)).product::<f64>() * g.powi(term.g);
         m[(term.row, term.col)] += match slot {
             None => value,
             Some(s) => f64::from(term.exps[s]) * value,
@@ -818,8 +837,15 @@ mod tests {
     /// of the ideal circuit (an independent reference), with a zero offset column.
     #[test]
     fn exact_maps_of_the_ideal_circuit_are_the_pwm_maps() {
+        // With a load resistor too: the PWM model's analytic ∂/∂ln Cl and ∂/∂ln L then carry the
+        // −vo/(rload·Cl) term, the exact model's finite differences the simulator's.
+        for rload in [0.0, 5.0] {
+            exact_maps_are_the_pwm_maps(Params { cl: 4.7e-6, rload, ..Params::default() });
+        }
+    }
+
+    fn exact_maps_are_the_pwm_maps(truth: Params) {
         use crate::experiment::{Experiment, ModelPlant, run};
-        let truth = Params { cl: 4.7e-6, ..Params::default() };
         let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 200, ..Experiment::default() }).unwrap();
         let outs = [Signal::Vout, Signal::Il];
         let pwm = Model::new(Structure::Pwm, Sampling::PeriodStart, &outs, &[Free::Cl, Free::L], &data, truth.period()).unwrap();

@@ -70,7 +70,9 @@ pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, Estimat
     };
     set_inputs(&mut conv, 0)?;
     conv.initialize();
-    let il0 = conv.state().il;
+    // The DC point's current, moved by what a load resistor draws at v0 instead of there.
+    let s0 = conv.state();
+    let il0 = s0.il + (v0 - s0.vo) * conv.params().load_conductance();
     conv.set_state(State { il: il0, vc: v0, vo: v0, ic: 0.0 });
     let mut out = Vec::with_capacity(data.len());
     for k in 0..data.len() {
