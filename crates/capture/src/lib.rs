@@ -369,10 +369,11 @@ mod tests {
         assert!((p.fs - 100e3).abs() < 100e3 * 1e-3, "{}", p.fs);
         // One sample spacing (103 ns) of 10 µs bounds the timing error of a step edge.
         assert!(p.duty.iter().all(|d| (d - 0.3).abs() < 0.011), "{:?}", p.duty);
-        // vout is a ramp: the trapezoid average is the value at mid-period.
+        // vout is a ramp (1 mV/µs): the trapezoid average is the value at mid-period, up to the
+        // edge timing error (< one sample spacing, 103 ns → 0.1 mV).
         for (i, a) in p.vout_avg.iter().enumerate() {
             let mid = 5.0 + (p.time[i] + 5e-6) * 1e3;
-            assert!((a - mid).abs() < 1e-6, "{a} vs {mid}");
+            assert!((a - mid).abs() < 1e-4, "{a} vs {mid}");
         }
     }
 
