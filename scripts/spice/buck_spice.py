@@ -579,8 +579,11 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
              dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
              diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0,
              inductor_saturation=0.0, isat=10.0, cap_dc_bias=0.0, cap_rated_voltage=16.0,
-             rload=0.0):
+             rload=0.0, raw=None):
     """Simulate a buck converter in ngspice for len(duty) periods.
+
+    raw: a dict to receive the raw transient vectors (time, v(out), i(vam), ...),
+    e.g. for write_capture().
 
     duty: per-period duty d_k in [0, 1].  circuit: "ideal" (ideal switch
     node; the default, unchanged), "sync" (VDMOS high and low side, body
@@ -698,6 +701,8 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
                 fields["snubber"] = "* (no snubber)"
         netlist = template.substitute(fields)
     vec = _run_ngspice(netlist, workdir, n, T)
+    if raw is not None:
+        raw.update(vec, warmup_time=warmup * T)
     t = vec["time"]
 
     out = {"time": np.arange(n) * T, "duty": duty}
@@ -717,6 +722,25 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
         out = {k: v[warmup:] for k, v in out.items()}
         out["time"] = np.arange(n_out) * T
     return out
+
+
+def write_capture(path, raw, rate, noise_v=5e-3, noise_i=5e-3, seed=1):
+    """An oscilloscope capture of the raw transient: v(out), i(vam) and (real circuits) v(sw)
+    resampled at `rate` [S/s] (a clock unrelated to fs; the first sample at a random phase),
+    with seeded white noise on each channel (σ noise_v [V] on the voltages, noise_i [A] on il).
+    Time 0 is the end of the warm-up, as in the per-period data file."""
+    rng = np.random.default_rng(seed)
+    t = raw["time"] - raw["warmup_time"]
+    ts = np.arange(max(t[0], 0.0) + rng.uniform(0, 1 / rate), t[-1], 1 / rate)
+    cols = [("time", ts)]
+    for key, name, sigma in (("vout", "v(out)", noise_v), ("il", "i(vam)", noise_i), ("sw", "v(sw)", noise_v)):
+        if name in raw:
+            cols.append((key, np.interp(ts, t, raw[name]) + rng.normal(0, sigma, len(ts))))
+    lines = [f"# capture_rate = {rate!r}", f"# noise_v = {noise_v!r}", f"# noise_i = {noise_i!r}",
+             ",".join(c for c, _ in cols)]
+    lines += [",".join(f"{x:.9g}" for x in row) for row in np.column_stack([v for _, v in cols])]
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
 
 
 def _ngspice_version():
@@ -806,6 +830,10 @@ def main(argv=None):
     p.add_argument("--out", default="-", help="CSV output file ('-' = stdout)")
     p.add_argument("--truth", help="write the circuit's non-ideal effects (JSON sidecar) here")
     p.add_argument("--time", action="store_true", help="print ngspice wall time to stderr")
+    p.add_argument("--capture", help="also write an oscilloscope capture (raw transient resampled) here")
+    p.add_argument("--capture-rate", type=float, default=97.3e6, help="capture sample rate [S/s]")
+    p.add_argument("--capture-noise", type=float, nargs=2, default=[5e-3, 5e-3],
+                   metavar=("V", "A"), help="noise σ of the captured voltages [V] and current [A]")
     a = p.parse_args(argv)
 
     if a.duty_file:
@@ -815,7 +843,8 @@ def main(argv=None):
     params = dict(L=a.L, RL=a.RL, C=a.C, Rc=a.Rc, Cl=a.cl, fs=a.fs, U=a.U, io=a.io)
     real = dict(dead_time=a.dead_time, rds_on=a.rds_on, gate_rise=a.gate_rise)
     t0 = _time.perf_counter()
-    r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit,
+    raw = {} if a.capture else None
+    r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit, raw=raw,
                  warmup=a.warmup, load_esr=a.load_esr, esl=a.esl,
                  inductor_saturation=a.inductor_saturation, isat=a.isat, cap_dc_bias=a.cap_dc_bias,
                  cap_rated_voltage=a.cap_rated_voltage, rload=a.rload, **real, **params)
@@ -845,6 +874,8 @@ def main(argv=None):
     else:
         with open(a.out, "w") as f:
             f.write(text)
+    if a.capture:
+        write_capture(a.capture, raw, a.capture_rate, *a.capture_noise, seed=a.seed)
     if a.truth:
         t = truth(a.circuit, duty0=float(duty[0]), L=a.L, RL=a.RL, fs=a.fs, U=a.U, io=a.io, **real)
         t["warmup"] = a.warmup

@@ -9,6 +9,8 @@ mod identify;
 mod nominal_fmu;
 mod report;
 mod svg;
+mod convert;
+mod sweep;
 mod units;
 
 use std::path::PathBuf;
@@ -30,13 +32,20 @@ enum Command {
     /// Say where the averaged model misses the data, which unmodelled effect explains it, and
     /// how far the held-out error shrinks once it is added.
     Diagnose(DiagnoseArgs),
+    /// Convert a measurement into the data contract (an oscilloscope capture: one row per
+    /// switching period).
+    Convert(convert::ConvertArgs),
 }
 
 #[derive(Debug, Args)]
 struct DiagnoseArgs {
     /// CSV data file (the data contract), e.g. from ngspice (`scripts/spice/buck_spice.py`).
-    #[arg(long)]
+    #[arg(long, required_unless_present = "sweep", default_value = "-", hide_default_value = true)]
     data: PathBuf,
+    /// A steady-state sweep (one operating point per row, see the README): which DC effects
+    /// explain the gap to the nominal DC model.
+    #[arg(long, conflicts_with_all = ["fmu", "nominal"])]
+    sweep: Option<PathBuf>,
     /// The nominal model given as an FMI 2.0 Co-Simulation FMU: its start values of L, RL, C,
     /// Rc, fs and `mode` set the nominal circuit and model, and it is also run on the data's
     /// inputs to report its own held-out error.
@@ -182,7 +191,9 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Identify(args) => identify::run(&args),
+        Command::Diagnose(args) if args.sweep.is_some() => sweep::run(&args),
         Command::Diagnose(args) => diagnose::run(&args),
+        Command::Convert(args) => convert::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -314,3 +314,29 @@ fn diagnose_takes_the_resistive_load_from_the_metadata() {
     let cl = j["gap_before"]["cl"].as_f64().unwrap();
     assert!((cl / 4.7e-6 - 1.0).abs() < 0.01, "nominal fit's Cl {cl:e}");
 }
+
+/// `diagnose --sweep` on the student-lab sweep: a JSON with a forward-selection sequence and a
+/// verdict that is not `none`.
+#[test]
+fn diagnose_sweep_on_the_lab_fixture() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let json = dir.path().join("sweep.json");
+    let lab = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/sweep/lab24v.csv");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_buckid"))
+        .args(["diagnose", "--sweep"])
+        .arg(&lab)
+        .arg("--json")
+        .arg(&json)
+        .arg("--report")
+        .arg(dir.path().join("report"))
+        .output()?;
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("assuming rds_on"));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json)?)?;
+    assert!(v["selected"].as_array().is_some_and(|s| !s.is_empty()), "{v}");
+    assert_ne!(v["verdict"], "none");
+    assert!(v["gap_before"]["rms"].as_f64().is_some_and(|r| r > 0.5));
+    assert!(v["where"]["by_operating_point"].as_array().is_some_and(|p| p.len() == 9));
+    assert!(dir.path().join("report/index.html").exists());
+    Ok(())
+}
