@@ -10,6 +10,7 @@ use gap::{Diagnosis, Group, Nominal};
 
 use super::{Page, table};
 use crate::svg::{Bar, Bars, Plot, Series, esc};
+use crate::units::{si, unit_of, with_ci};
 
 /// Most held-out samples drawn in the trace overlay.
 const MAX_TRACE: usize = 2000;
@@ -45,9 +46,19 @@ fn group_bars<'a>(title: &'a str, groups: &[Group]) -> Bars<'a> {
     }
 }
 
-/// `[lo, hi]` with 4 significant digits.
-fn ci(c: [f64; 2]) -> String {
-    format!("[{:.4e}, {:.4e}]", c[0], c[1])
+/// An effect's parameters with units and CI95 ("not identified" where the interval tells
+/// nothing), one per line.
+fn params_html(e: &gap::EffectFit) -> String {
+    let mut lines: Vec<String> = e
+        .params
+        .iter()
+        .filter(|(k, _)| !k.ends_with("_nominal") && k.as_str() != "dcm")
+        .map(|(k, v)| format!("{} = {}", esc(k), esc(&with_ci(*v, e.ci95.get(k).copied(), unit_of(k)))))
+        .collect();
+    if let Some(d) = e.drift_percent {
+        lines.push(format!("{d:+.2} % from nominal"));
+    }
+    lines.join("<br>")
 }
 
 /// Writes `index.html` and the figures into `dir` and returns the page's path.
@@ -93,19 +104,11 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         .effects
         .iter()
         .map(|e| {
-            let params: Vec<String> = e
-                .params
-                .iter()
-                .map(|(k, v)| match e.ci95.get(k) {
-                    Some(c) => format!("{} = {v:.4e} {}", esc(k), ci(*c)),
-                    None => format!("{} = {v:.4e}", esc(k)),
-                })
-                .collect();
             let name = if e.name == dx.verdict { format!("<b>{}</b>", e.name) } else { e.name.to_string() };
             vec![
                 name,
-                params.join("<br>"),
-                format!("{:.4} {}", e.cl.estimate * 1e6, ci(e.cl.ci95.map(|c| c * 1e6))),
+                params_html(e),
+                esc(&with_ci(e.cl.estimate, Some(e.cl.ci95), "F")),
                 format!("{:.4}", e.nrmse_after),
                 format!("{:.1}", e.shrink_percent),
                 e.closed_percent.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
@@ -144,7 +147,29 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {nrmse:.4}.", esc(path))),
     ));
     let (cl, ci95, test) = dx.final_cl();
-    page.html(&format!("<p>Cl of the final model: {:.4} µF, CI95 [{:.4}, {:.4}] µF; {}.</p>", cl * 1e6, ci95[0] * 1e6, ci95[1] * 1e6, esc(&test)));
+    page.html(&format!("<p>Cl of the final model: {}; {}.</p>", esc(&with_ci(cl, Some(ci95), "F")), esc(&test)));
+    let steps: Vec<Vec<String>> = dx
+        .selected
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            vec![
+                format!("{}", i + 1),
+                format!("<b>{}</b>", e.name),
+                params_html(e),
+                e.closed_percent.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
+                e.closed_of_remaining.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
+                esc(&si(e.rms_after, "V", 3)),
+            ]
+        })
+        .collect();
+    page.html("<h2>Effects selected, in order</h2>");
+    if steps.is_empty() {
+        page.html(&format!("<p>None: {}.</p>", esc(&dx.selection_ended)));
+    } else {
+        page.html(&table(&["step", "effect", "parameters at the final fit [CI95]", "gap over the floor closed [%]", "of what was left [%]", "held-out residual RMS"], &steps));
+        page.html(&format!("<p>The sequence ended: {}.</p>", esc(&dx.selection_ended)));
+    }
     page.html(&format!(
         "<p>Where: {} (noise floor {:.3e} V RMS: {}; held-out residual {:.3e} V RMS).</p>",
         esc(&w.summary),
@@ -157,7 +182,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     page.figure("gap_windows", windows.render());
     page.figure("heldout", overlay.render());
     page.html("<h2>Effects, best held-out error first</h2>");
-    page.html(&table(&["effect", "parameters [CI95]", "Cl [µF] [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "standing"], &rows));
+    page.html(&table(&["effect", "parameters [CI95]", "Cl [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "standing"], &rows));
     if !not_tested.is_empty() {
         page.html(&format!("<h2>Not tested</h2><ul>{not_tested}</ul>"));
     }
