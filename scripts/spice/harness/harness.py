@@ -71,39 +71,49 @@ def f(x):
     return repr(x)
 
 
-def pwl(name, nodes, points, per_line=6):
-    """A PWL voltage source over (time, value) points, continued over several lines."""
-    lines = [f"{name} {nodes} PWL("]
-    for i in range(0, len(points), per_line):
-        lines.append("+ " + " ".join(f"{f(t)} {f(v)}" for t, v in points[i:i + per_line]))
-    lines.append("+ )")
-    return "\n".join(lines)
+def runs(duty):
+    """(first period, past-the-last period, duty) of each run of equal duty."""
+    out, k0 = [], 0
+    for k in range(1, len(duty) + 1):
+        if k == len(duty) or duty[k] != duty[k0]:
+            out.append((k0, k, float(duty[k0])))
+            k0 = k
+    return out
 
 
-def gate_points(intervals, ramp, centred, t_end):
-    """PWL corners of a gate that is on over each (t_on, t_off), ramping over ``ramp``.
+def gate_chain(prefix, node, duty, T, window, ramp, centred):
+    """A gate waveform on ``node``: PULSE current sources (one per run of equal duty) summed
+    into 1 ohm, so the node's voltage is their sum and the sources add no unknowns.
 
-    centred: the ramp is centred on the instant (volt-seconds of an ideal edge kept);
-    otherwise it starts there (a driver reacting to a command). Pulses shorter than one ramp
-    are dropped; off-gaps shorter than one ramp keep the gate on.
+    ``window(d)`` gives the on-interval (start, end) relative to the period start; the gate
+    ramps 0 -> V_DRIVE over ``ramp`` from the start (or centred on it) and back at the end.
+    PULSE with a pulse count keeps every source O(1) per time point (a long PWL is scanned
+    from its first corner at every evaluation: quadratic in the run length) and puts a
+    breakpoint on every ramp corner. A ramp centred on t = 0 starts at 0 instead.
     """
     shift = ramp / 2 if centred else 0.0
-    merged = []
-    for a, b in intervals:
-        if b - a < ramp:
-            continue
-        if merged and a - merged[-1][1] < 2 * ramp:
-            merged[-1][1] = b
-        else:
-            merged.append([a, b])
-    on_at_zero = bool(merged) and merged[0][0] - shift <= 0
-    pts = [(0.0, V_DRIVE if on_at_zero else 0.0)]
-    for a, b in merged:
-        if a - shift > 0:
-            pts += [(a - shift, 0.0), (a - shift + ramp, V_DRIVE)]
-        pts += [(b - shift, V_DRIVE), (b - shift + ramp, 0.0)]
-    pts.append((t_end, pts[-1][1]))
-    return [p for i, p in enumerate(pts) if i == 0 or p[0] > pts[i - 1][0]]
+    lines = []
+
+    def source(name, td, tr, pw, per, count):
+        lines.append(f"I{prefix}{name} 0 {node} PULSE(0 {f(V_DRIVE)} {f(td)} {f(tr)} {f(ramp)} "
+                     f"{f(pw)} {f(per)} {count})")
+
+    for j, (k0, k1, d) in enumerate(runs(duty)):
+        a, b = window(d)
+        a, b = a - shift, b - shift
+        pw = b - a - ramp
+        if pw <= 0:
+            continue  # a pulse shorter than its ramp: the driver swallows it
+        if b + ramp - a >= T:
+            raise ValueError(f"duty {d}: the gate would not turn off within the period")
+        if k0 == 0 and a < 0:
+            # Period 0 rises from t = 0 (no earlier time exists), over the part of the ramp left.
+            source(f"{j}a", 0.0, ramp + a, pw, 2 * T, 1)
+            k0 = 1
+        if k1 > k0:
+            source(str(j), k0 * T + a, ramp, pw, T, k1 - k0)
+    lines.append(f"R{prefix} {node} 0 1")
+    return "\n".join(lines), node
 
 
 def diode_card(name, p):
@@ -125,16 +135,12 @@ def nmos_card(name, ron):
 
 def power_stage(a, duty, T):
     """(gate-drive lines, power-stage lines) of topology ``a.topology``."""
-    n = len(duty)
-    t_end = n * T
-    starts = np.arange(n) * T
     if a.topology == "sw":
-        on = [(s, s + d * T) for s, d in zip(starts, duty)]
-        gate = pwl("Vg", "g 0", gate_points(on, a.ramp, True, t_end))
+        gate, g = gate_chain("g", "g", duty, T, lambda d: (0.0, d * T), a.ramp, True)
         vh = -0.3 * V_DRIVE  # negative VH: smooth log transition over VT +- |VH|
         stage = "\n".join([
-            "Shs   vin sw  g 0 SWHS",
-            "Sls   sw  0   0 g SWLS",
+            f"Shs   vin sw  {g} 0 SWHS",
+            f"Sls   sw  0   0 {g} SWLS",
             f".model SWHS SW(VT={f(V_DRIVE / 2)} VH={f(vh)} RON={f(a.ron_hs)} ROFF=1e6)",
             f".model SWLS SW(VT={f(-V_DRIVE / 2)} VH={f(vh)} RON={f(a.ron_ls)} ROFF=1e6)",
         ])
@@ -143,10 +149,10 @@ def power_stage(a, duty, T):
     # sync: each turn-on waits for the other gate's ramp to end plus the dead time; async: the
     # ramps are centred on the PWM instants like the sw topology's.
     lag = a.ramp + a.dead_time if sync else 0.0
-    hs_on = [(s + lag, s + d * T) for s, d in zip(starts, duty)]
-    lines_gate = [pwl("Vxh", "xh 0", gate_points(hs_on, a.ramp, not sync, t_end))]
+    gate_h, xh = gate_chain("xh", "xh", duty, T, lambda d: (lag, d * T), a.ramp, not sync)
+    gates = [gate_h]
     stage = [
-        "Ehs   dh  sw  xh 0 1",
+        f"Ehs   dh  sw  {xh} 0 1",
         f"Rgh   dh  gh  {f(a.rdrv)}",
         f"Cgh   gh  sw  {f(a.cgs)}",
         "Mhs   vin gh  sw sw NHS",
@@ -154,10 +160,10 @@ def power_stage(a, duty, T):
     ]
     dp = {"is": a.diode_is, "n": a.diode_n, "rs": a.diode_rs, "cjo": a.diode_cjo}
     if sync:
-        ls_on = [(s + d * T + lag, s + T) for s, d in zip(starts, duty)]
-        lines_gate.append(pwl("Vxl", "xl 0", gate_points(ls_on, a.ramp, False, t_end)))
+        gate_l, xl = gate_chain("xl", "xl", duty, T, lambda d: (d * T + lag, T), a.ramp, False)
+        gates.append(gate_l)
         stage += [
-            "Els   dl  0   xl 0 1",
+            f"Els   dl  0   {xl} 0 1",
             f"Rgl   dl  gl  {f(a.rdrv)}",
             f"Cgl   gl  0   {f(a.cgs)}",
             "Mls   sw  gl  0  0 NLS",
@@ -168,7 +174,7 @@ def power_stage(a, duty, T):
         ]
     else:
         stage += ["Dfw   0   sw  DFW", diode_card("DFW", dp)]
-    return "\n".join(lines_gate), "\n".join(stage)
+    return "\n".join(gates), "\n".join(stage)
 
 
 def dc_guess(a, d0):
@@ -207,8 +213,9 @@ def netlist(a, duty, T, rawfile):
             f"Bdb   ncl 0   I = {f(a.cl * a.dcbias / 1e-6)}*pow(min(abs(v(ncl))/{f(a.vrated)},1),1.5)*i(Ecp)",
         ]
     load = f"Rload out 0 {f(a.rload)}" if a.rload else f"Iload out 0 DC {f(a.io)}"
-    samples = (np.arange(n) * T + a.adc_delay)[1:]
-    adc = pwl("Vadc", "nadc 0", [(0.0, 0.0)] + [(t, float(i % 2)) for i, t in enumerate(samples, 1)])
+    # A triangle with corners at k*T + adc_delay: a time point at every ADC sample.
+    adc = (f"Vadc  nadc 0 PULSE(0 1 {f(a.adc_delay)} {f(T / 2)} {f(T / 2 - 2e-12)} 1e-12 {f(T)} "
+           f"{n + 1})")
     max_step = a.max_step or T / a.steps
     fields = dict(
         gate_drive=gate, power_stage=stage, U=f(a.U), csw=f(a.csw), inductor=inductor, RL=f(a.RL),
