@@ -190,10 +190,20 @@ def netlist(a, duty, T, rawfile):
     n = len(duty)
     gate, stage = power_stage(a, duty, T)
     if a.sat > 0:
-        w = 0.05 * a.isat
+        # Flux-controlled: node phi integrates the inductor voltage on a capacitor of L (so
+        # v(phi) = flux/L, in amps) and a B source draws i(phi) = x + k*w*(sp((x - isat)/w) -
+        # sp((-x - isat)/w)), sp the softplus, k = s/(1 - s): the incremental inductance falls
+        # from L to L*(1 - s) over a knee of w = 5 % of isat, symmetric in the current's sign.
+        w, k = 0.05 * a.isat, a.sat / (1 - a.sat)
+
+        def sp(x):
+            return f"(max({x},0)+ln(1+exp(-abs({x}))))"
+        x = "v(phi)"
         inductor = "\n".join([
-            f"Lm    sw  nsat {f(a.L)} IC={f(il0)}",
-            f"Bsat  nsat nl V = -{f(a.sat)}*0.5*(1+tanh((abs(i(Vam))-{f(a.isat)})/{f(w)}))*v(sw,nsat)",
+            "Gphi  0   phi sw nl 1",
+            f"Cphi  phi 0   {f(a.L)} IC={f(il0)}",
+            f"Bind  sw  nl  I = {x}+{f(k * w)}*({sp(f'({x}-{f(a.isat)})/{f(w)}')}"
+            f"-{sp(f'(-{x}-{f(a.isat)})/{f(w)}')})",
         ])
     else:
         inductor = f"Lm    sw  nl  {f(a.L)} IC={f(il0)}"
@@ -202,16 +212,24 @@ def netlist(a, duty, T, rawfile):
                               f"Cm    vc  0   {f(a.C)} IC={f(vo0)}"])
     else:
         main_cap = "\n".join([f"Rcm   out vc  {f(a.Rc)}", f"Cm    vc  0   {f(a.C)} IC={f(vo0)}"])
-    load_cap = [f"Rcl   out ncl {f(a.load_esr)}" if a.load_esr > 0 else "Vcl   out ncl 0",
-                f"Clo   ncl 0   {f(a.cl)} IC={f(vo0)}"]
+    # Without load_esr, Cl sits on the output node itself (no 0 V source in the LC loops).
+    ncl = "ncl" if a.load_esr > 0 else "out"
+    load_cap = [f"Rcl   out ncl {f(a.load_esr)}"] if a.load_esr > 0 else []
     if a.dcbias > 0:
-        # The charge Cl loses with voltage, returned by a B source scaled off a 1 uF copy of
-        # v(ncl): i = -Cl*b*(v/Vr)^1.5 * dv/dt, so Cl(v) = Cl*(1 - b*min(v/Vr, 1)^1.5).
+        # Charge-controlled: node q integrates the branch current on a capacitor of Cl (so
+        # v(q) = charge/Cl, in volts) and a B source holds v = h(q), the inverse of
+        # q(v) = Cl*Vr/c*(1 - 1/(1 + c*v/Vr)): Cl(v) = Cl/(1 + c*v/Vr)^2, a loss of dcbias at
+        # the rated voltage Vr for c = 1/sqrt(1 - dcbias) - 1.
+        c = 1 / math.sqrt(1 - a.dcbias) - 1
+        q0 = a.vrated / c * (1 - 1 / (1 + c * vo0 / a.vrated))
         load_cap += [
-            "Ecp   ncp 0   ncl 0 1",
-            f"Ccp   ncp 0   1e-6 IC={f(vo0)}",
-            f"Bdb   ncl 0   I = {f(a.cl * a.dcbias / 1e-6)}*pow(min(abs(v(ncl))/{f(a.vrated)},1),1.5)*i(Ecp)",
+            f"Vclm  {ncl} ncv 0",
+            "Fq    0   q   Vclm 1",
+            f"Cq    q   0   {f(a.cl)} IC={f(q0)}",
+            f"Bcv   ncv 0   V = {f(a.vrated / c)}*(1/(1-{f(c / a.vrated)}*v(q))-1)",
         ]
+    else:
+        load_cap.append(f"Clo   {ncl} 0   {f(a.cl)} IC={f(vo0)}")
     load = f"Rload out 0 {f(a.rload)}" if a.rload else f"Iload out 0 DC {f(a.io)}"
     # A triangle with corners at k*T + adc_delay: a time point at every ADC sample.
     adc = (f"Vadc  nadc 0 PULSE(0 1 {f(a.adc_delay)} {f(T / 2)} {f(T / 2 - 2e-12)} 1e-12 {f(T)} "

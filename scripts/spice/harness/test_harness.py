@@ -141,3 +141,29 @@ def test_prbs_is_balanced_and_seeded():
     assert set(a) == {0.4, 0.6} and not np.array_equal(a, b)
     assert abs(a.mean() - 0.5) < 0.02
     assert np.all(a[:8] == a[0])
+
+
+def vout_ripple(a):
+    """Peak-to-peak vout over the last period."""
+    t, v, _ = harness.transient(a, np.full(N, D))
+    last = t >= (N - 1) * T
+    return v[last].max() - v[last].min()
+
+
+def test_biased_load_capacitor_ripple_grows_as_its_capacitance_falls():
+    # Reference: with the C branch removed (C = 1 pF behind 1 kOhm) the output ripple is
+    # inversely proportional to Cl, and the charge-controlled Cl(v) = Cl/(1 + c*v/Vr)^2.
+    base = ["--topology", "sw", "--io", "1", "--cl", "20e-6", "--C", "1e-12", "--Rc", "1e3"]
+    r0 = vout_ripple(args(*base))
+    r1 = vout_ripple(args(*base, "--dcbias", "0.5", "--vrated", "6.3"))
+    c = 1 / math.sqrt(0.5) - 1
+    want = (1 + c * (D * U - RL) / 6.3) ** 2
+    assert abs(r1 / r0 - want) < 0.03 * want, (r1 / r0, want)
+
+
+def test_behavioural_elements_keep_the_dc_value():
+    # The flux- and charge-controlled elements store, they do not dissipate: DC as ideal.
+    io = 2.0
+    got = mean_vout(args("--topology", "sw", "--io", str(io), "--sat", "0.2", "--isat", "2.2",
+                         "--dcbias", "0.4", "--esl", "1e-9", "--load-esr", "0.02"))
+    assert abs(got - (D * U - io * (RL + 1e-3))) < 2e-3
