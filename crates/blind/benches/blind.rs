@@ -1,15 +1,18 @@
 //! The blind check of the gap diagnosis: seeded datasets with one withheld effect each (and
-//! clean ones), from the FMU and from ngspice, diagnosed without being told; prints the
-//! confusion matrix, the four targets and the diagnosis time.
+//! clean ones), from the FMU, from the own ngspice netlists and from the independent harness
+//! (one or two withheld effects, circuits written apart from the model), diagnosed without being
+//! told; prints, per source, the confusion matrix, the targets and the diagnosis time.
 //!
-//! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]`
+//! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]
+//! [--harness-per-effect K]` (0 turns a source off)
 //!
 //! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
-//! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of `scripts/setup`.
+//! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of
+//! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    Outcome, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, plant_case,
-    plant_effects, rng, score, spice_case,
+    HARNESS_CASES, Harness, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
+    draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
 };
 
 fn arg(name: &str) -> Option<String> {
@@ -30,33 +33,119 @@ fn floor_error_percent(o: &Outcome) -> Option<f64> {
 fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
     let check = o.cl_check.as_ref().map_or_else(String::new, |c| format!(", Cl test H {:.1}{}", c.hausman, if c.consistent { "" } else { " (widened)" }));
-    eprintln!("{:>3} {:10} {:20} → {:20} {:.2} s, {floor}{check}", index, o.source, o.truth.effect, o.verdict, o.seconds);
+    eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}", index, o.source, o.truth.label(), o.said(), o.seconds);
+}
+
+/// The targets of one source's datasets.
+fn report(source: &str, seed: u64, part: &[Outcome]) {
+    println!("\n## {source} datasets ({}; seed {seed})\n", part.len());
+    println!("{}", confusion_matrix(part));
+    let s = score(part);
+    let mut times: Vec<f64> = part.iter().map(|o| o.seconds).collect();
+    times.sort_by(f64::total_cmp);
+    println!("| target | result |\n|---|---|");
+    println!("| withheld effect named (≥ 90 %) | {} |", percent(s.named, s.effect_cases));
+    println!(
+        "| … of those whose effect leaves a gap above the measurement noise | {} ({} below the detection limit) |",
+        percent(s.detectable_named, s.detectable_cases),
+        s.effect_cases - s.detectable_cases
+    );
+    println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
+    if s.pair_cases > 0 {
+        println!("| both effects of a two-effect dataset named (≥ 80 %) | {} (at least one: {}) |", percent(s.pair_named, s.pair_cases), percent(s.pair_one_named, s.pair_cases));
+    }
+    let named = part.iter().filter(|o| !o.truth.effects().is_empty() && o.hit()).count();
+    println!(
+        "| ≥ 70 % of the held-out gap above the measurement noise closed, of the named with a gap | {} ({} named had none above the noise) |",
+        percent(s.closed_70, s.with_gap),
+        named - s.with_gap
+    );
+    println!("| true Cl inside the verdict's CI95, of the named | {} |", percent(s.cl_covered, named));
+    println!("| true Cl inside the final CI95, of all (≥ 90 %) | {} |", percent(s.final_cl_covered, s.final_cl_cases));
+    if let (Some(mid), Some(max)) = (times.get(times.len() / 2), times.last()) {
+        println!("| diagnosis time, {SAMPLES} samples (≤ 1 s) | median {mid:.2} s, max {max:.2} s |");
+    }
+    let mut shrink: Vec<f64> = part.iter().filter(|o| o.hit()).filter_map(|o| o.shrink_percent).collect();
+    shrink.sort_by(f64::total_cmp);
+    if !shrink.is_empty() {
+        println!("| (held-out NRMSE shrink, sensor noise included, of the named) | median {:.0} %, min {:.0} % |", shrink[shrink.len() / 2], shrink[0]);
+    }
+    let mut floor: Vec<f64> = part.iter().filter_map(floor_error_percent).collect();
+    floor.sort_by(f64::total_cmp);
+    if !floor.is_empty() {
+        println!(
+            "| diagnosis's own noise-floor estimate vs the true measurement noise | median {:+.1} %, range {:+.1} … {:+.1} % ({} of {}) |",
+            floor[floor.len() / 2],
+            floor[0],
+            floor[floor.len() - 1],
+            floor.len(),
+            part.len()
+        );
+    }
+    println!("\nMisses ({source}):");
+    let with_effect = |o: &&Outcome| !o.truth.effects().is_empty() && o.hit();
+    for o in part.iter().filter(with_effect).filter(|o| !o.closed_percent.is_some_and(|c| c >= 70.0)) {
+        let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
+        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+    }
+    for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
+        let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
+        println!(
+            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",
+            o.truth.label(),
+            o.truth.cl * 1e6,
+            cl * 1e6,
+            lo * 1e6,
+            hi * 1e6,
+            100.0 * (cl / o.truth.cl - 1.0),
+            (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
+            o.truth.io,
+            o.truth.settings
+        );
+    }
+    for o in part.iter().filter(|o| !o.hit()) {
+        let limit = if o.detectable || o.truth.effects().is_empty() { "" } else { ", no gap above the noise" };
+        let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
+        println!(
+            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A, {:?})",
+            o.truth.label(),
+            o.said(),
+            o.truth.cl * 1e6,
+            o.truth.io,
+            o.truth.settings
+        );
+    }
 }
 
 fn main() {
     let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
+    let harness_per_effect: usize = arg("--harness-per-effect").map_or(1, |s| s.parse().expect("--harness-per-effect K"));
     let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
-    let fmu = bundled_fmu();
-    let spice = if std::env::args().any(|a| a == "--no-spice") { None } else { Spice::find(&fmu_fixture::root()) };
-    match &fmu {
-        Some(p) => eprintln!("plant datasets from {}", p.display()),
-        None => eprintln!("no fmu/BuckConverter.fmu (cargo xtask fmu failed): plant datasets from the same model in process"),
-    }
-    if spice.is_none() {
-        eprintln!("ngspice or .venv missing (scripts/setup): no ngspice datasets");
-    }
+    let no_spice = std::env::args().any(|a| a == "--no-spice");
+    let root = fmu_fixture::root();
     let mut outcomes: Vec<Outcome> = Vec::new();
     let mut index = 0u64;
-    for _ in 0..per_effect {
-        for effect in plant_effects() {
-            index += 1;
-            let mut r = rng(seed, index);
-            let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");
-            let o = diagnose_case(&case);
-            progress(index, &o);
-            outcomes.push(o);
+    if per_effect > 0 {
+        let fmu = bundled_fmu();
+        match &fmu {
+            Some(p) => eprintln!("plant datasets from {}", p.display()),
+            None => eprintln!("no fmu/BuckConverter.fmu (cargo xtask fmu failed): plant datasets from the same model in process"),
         }
+        for _ in 0..per_effect {
+            for effect in plant_effects() {
+                index += 1;
+                let mut r = rng(seed, index);
+                let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");
+                let o = diagnose_case(&case);
+                progress(index, &o);
+                outcomes.push(o);
+            }
+        }
+    }
+    let spice = if no_spice || spice_per_effect == 0 { None } else { Spice::find(&root) };
+    if spice.is_none() && !no_spice && spice_per_effect > 0 {
+        eprintln!("ngspice or .venv missing (scripts/setup): no ngspice datasets");
     }
     if let Some(spice) = &spice {
         for _ in 0..spice_per_effect {
@@ -70,76 +159,33 @@ fn main() {
             }
         }
     }
-    for source in ["fmu", "in-process", "ngspice"] {
-        let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();
-        if part.is_empty() {
-            continue;
+    let harness = if no_spice || harness_per_effect == 0 { None } else { Harness::find(&root) };
+    if harness.is_none() && !no_spice && harness_per_effect > 0 {
+        eprintln!("ngspice or .venv missing (scripts/setup): no independent-harness datasets");
+    }
+    if let Some(harness) = &harness {
+        // Indices of their own (offset) so that adding plant or ngspice datasets does not
+        // change the harness's draws.
+        for round in 0..harness_per_effect {
+            for (i, (effect, also)) in HARNESS_CASES.iter().enumerate() {
+                let hindex = 1_000_000 + (round * HARNESS_CASES.len() + i) as u64;
+                index += 1;
+                let truth = draw_harness(effect, *also, &mut rng(seed, hindex));
+                match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
+                    Ok(case) => {
+                        let o = diagnose_case(&case);
+                        progress(index, &o);
+                        outcomes.push(o);
+                    }
+                    Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
+                }
+            }
         }
-        println!("\n## {source} datasets ({}; seed {seed})\n", part.len());
-        println!("{}", confusion_matrix(&part));
     }
-    let s = score(&outcomes);
-    let mut times: Vec<f64> = outcomes.iter().map(|o| o.seconds).collect();
-    times.sort_by(f64::total_cmp);
-    println!("| target | result |\n|---|---|");
-    println!("| withheld effect named (≥ 90 %) | {} |", percent(s.named, s.effect_cases));
-    println!(
-        "| … of those whose effect leaves a gap above the measurement noise | {} ({} below the detection limit) |",
-        percent(s.detectable_named, s.detectable_cases),
-        s.effect_cases - s.detectable_cases
-    );
-    println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
-    println!(
-        "| ≥ 70 % of the held-out gap above the measurement noise closed, of the named with a gap | {} ({} named had none above the noise) |",
-        percent(s.closed_70, s.with_gap),
-        s.named - s.with_gap
-    );
-    println!("| true Cl inside the CI95, of the named | {} |", percent(s.cl_covered, s.named));
-    println!(
-        "| diagnosis time, 3001 samples (≤ 1 s) | median {:.2} s, max {:.2} s |",
-        times[times.len() / 2],
-        times[times.len() - 1]
-    );
-    let mut shrink: Vec<f64> = outcomes.iter().filter(|o| o.verdict == o.truth.effect).filter_map(|o| o.shrink_percent).collect();
-    shrink.sort_by(f64::total_cmp);
-    if !shrink.is_empty() {
-        println!("| (held-out NRMSE shrink, sensor noise included, of the named) | median {:.0} %, min {:.0} % |", shrink[shrink.len() / 2], shrink[0]);
-    }
-    let mut floor: Vec<f64> = outcomes.iter().filter_map(floor_error_percent).collect();
-    floor.sort_by(f64::total_cmp);
-    if !floor.is_empty() {
-        println!(
-            "| diagnosis's own noise-floor estimate vs the true measurement noise | median {:+.1} %, range {:+.1} … {:+.1} % ({} of {}) |",
-            floor[floor.len() / 2],
-            floor[0],
-            floor[floor.len() - 1],
-            floor.len(),
-            outcomes.len()
-        );
-    }
-    println!("\nMisses:");
-    for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && !o.closed_percent.is_some_and(|c| c >= 70.0)) {
-        let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
-        println!("- {} {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
-    }
-    for o in outcomes.iter().filter(|o| o.truth.effect != "none" && o.verdict == o.truth.effect && o.cl_in_ci95() == Some(false)) {
-        let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
-        println!(
-            "- {} {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",
-            o.source,
-            o.truth.effect,
-            o.truth.cl * 1e6,
-            cl * 1e6,
-            lo * 1e6,
-            hi * 1e6,
-            100.0 * (cl / o.truth.cl - 1.0),
-            (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
-            o.truth.io,
-            o.truth.settings
-        );
-    }
-    for o in outcomes.iter().filter(|o| o.verdict != o.truth.effect) {
-        let limit = if o.detectable { "" } else { ", no gap above the noise" };
-        println!("- {} {}: said {}{limit} (Cl {:.2} µF, io {:.2} A, {:?})", o.source, o.truth.effect, o.verdict, o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+    for (source, title) in [("fmu", "own FMU"), ("in-process", "own model in process"), ("ngspice", "own ngspice netlists"), ("harness", "independent harness")] {
+        let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();
+        if !part.is_empty() {
+            report(title, seed, &part);
+        }
     }
 }

@@ -1,7 +1,9 @@
 //! Seeded datasets with one withheld non-ideal effect each, for proving the gap diagnosis
 //! blind: a random effect of the design table with a random magnitude inside the table's range,
 //! a random `Cl` and load current, simulated by the FMU (or the same model in process) or by
-//! ngspice, plus clean datasets.
+//! ngspice, plus clean datasets; and, from the independent harness
+//! (`scripts/spice/harness/harness.py`: other devices, a switch-node capacitance, a late ADC,
+//! drawn noise), datasets with one or two withheld effects.
 //!
 //! The answer ([`Truth`]) is returned beside the data, never inside it: the data's metadata is
 //! cut to `fs` and `U`, and this crate is not a dependency of the diagnosis (`gap`), so the
@@ -30,11 +32,15 @@ pub const NOISE_VOUT: f64 = 2e-3;
 /// Samples per dataset (the thesis's 3001 periods).
 pub const SAMPLES: usize = 3001;
 
-/// What a dataset holds: the withheld effect and the values it was made with.
+/// What a dataset holds: the withheld effect(s) and the values it was made with.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Truth {
     /// The effect's contract name, or `none` for a clean dataset.
     pub effect: &'static str,
+    /// A second withheld effect (two-effect datasets of the independent harness).
+    pub also: Option<&'static str>,
+    /// Standard deviation of the sensor noise on `vout` [V].
+    pub noise: f64,
     /// The load capacitance [F].
     pub cl: f64,
     /// The load current [A].
@@ -44,6 +50,17 @@ pub struct Truth {
 }
 
 impl Truth {
+    /// The withheld effects (empty for a clean dataset).
+    pub fn effects(&self) -> Vec<&'static str> {
+        std::iter::once(self.effect).chain(self.also).filter(|e| *e != "none").collect()
+    }
+
+    /// The withheld effects joined by `+`, or `none`.
+    pub fn label(&self) -> String {
+        let effects = self.effects();
+        if effects.is_empty() { "none".to_string() } else { effects.join("+") }
+    }
+
     /// RMS of the measurement noise on the readings [V]: the sensor noise, plus the
     /// quantization's `lsb²/12` (Sheppard) for `adc_quantization` at the plant's default full
     /// scale (the generator leaves `adc_vfs` alone).
@@ -51,7 +68,7 @@ impl Truth {
         let bits = self.settings.iter().find(|(k, _)| *k == "adc_bits").map(|(_, v)| *v);
         let full_scale = buck_model::digital::Digital::default().adc_vfs;
         let quantization = bits.map_or(0.0, |b| (full_scale / b.exp2()).powi(2) / 12.0);
-        (NOISE_VOUT.powi(2) + quantization).sqrt()
+        (self.noise.powi(2) + quantization).sqrt()
     }
 }
 
@@ -132,7 +149,7 @@ pub fn draw(effect: &'static str, rng: &mut ChaCha8Rng) -> Truth {
         }
         other => unreachable!("no generator for {other}"),
     };
-    Truth { effect, cl, io, settings }
+    Truth { effect, also: None, noise: NOISE_VOUT, cl, io, settings }
 }
 
 /// The experiment of every dataset: PRBS duty 0.4/0.6, 3001 samples, seeded noise.
@@ -141,7 +158,7 @@ fn experiment(truth: &Truth, seed: u64) -> Experiment {
     Experiment {
         samples: SAMPLES,
         io: truth.io,
-        noise_vout: if adc { 0.0 } else { NOISE_VOUT },
+        noise_vout: if adc { 0.0 } else { truth.noise },
         noise_seed: seed,
         prbs: Prbs { seed, ..Prbs::default() },
         ..Experiment::default()
@@ -265,10 +282,168 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     }
     let mut data = DataSet::read_csv(&out)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, NOISE_VOUT).map_err(|e| EstimatorError::Config(e.to_string()))?;
+    let noise = Normal::new(0.0, truth.noise).map_err(|e| EstimatorError::Config(e.to_string()))?;
     data.vout.iter_mut().for_each(|v| *v += noise.sample(&mut rng));
     let model = model_for(truth.effect);
     Ok(Case { data: blind(data), nominal, model, truth, source: "ngspice" })
+}
+
+/// How to run the independent harness (`scripts/spice/harness/harness.py`): circuits written
+/// apart from the model and from the own netlists (see the script's doc).
+#[derive(Debug, Clone)]
+pub struct Harness {
+    /// Python interpreter (with numpy).
+    pub python: PathBuf,
+    /// The harness script.
+    pub script: PathBuf,
+}
+
+impl Harness {
+    /// The repository's harness with its venv's Python, when ngspice and both are present.
+    pub fn find(root: &Path) -> Option<Self> {
+        let python = root.join(".venv/bin/python");
+        let script = root.join("scripts/spice/harness/harness.py");
+        let ngspice = std::env::var_os("PATH").is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("ngspice").is_file()));
+        (ngspice && python.is_file() && script.is_file()).then_some(Self { python, script })
+    }
+}
+
+/// The withheld effects of the harness's datasets: one each, or two.
+pub const HARNESS_CASES: [(&str, Option<&str>); 12] = [
+    ("none", None),
+    ("switch_resistance", None),
+    ("diode_drop", None),
+    ("dead_time", None),
+    ("load_esr", None),
+    ("esl", None),
+    ("param_drift", None),
+    ("inductor_saturation", None),
+    ("cap_dc_bias", None),
+    ("diode_drop", Some("switch_resistance")),
+    ("dead_time", Some("load_esr")),
+    ("param_drift", Some("switch_resistance")),
+];
+
+fn log_uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    uniform(rng, lo.ln(), hi.ln()).exp()
+}
+
+/// The settings of one withheld effect in the harness (keys are the script's options with `_`
+/// for `-`), drawn wider than the design table where a real part would be.
+fn harness_effect(effect: &'static str, io: f64, rng: &mut ChaCha8Rng) -> Vec<(&'static str, f64)> {
+    match effect {
+        // Unequal switches: the resistance depends on the duty, as in a real half bridge.
+        "switch_resistance" => vec![("ron_hs", uniform(rng, 5e-3, 40e-3)), ("ron_ls", uniform(rng, 5e-3, 40e-3))],
+        // A Schottky (Vf ≈ 0.3–0.45 V) or a pn diode (≈ 0.55–0.8 V) card of the harness's own.
+        "diode_drop" => {
+            if rng.random_bool(0.5) {
+                vec![("diode_is", log_uniform(rng, 1e-6, 5e-5)), ("diode_n", uniform(rng, 1.0, 1.1)), ("diode_rs", uniform(rng, 10e-3, 40e-3)), ("diode_cjo", uniform(rng, 100e-12, 600e-12))]
+            } else {
+                vec![("diode_is", log_uniform(rng, 1e-10, 1e-8)), ("diode_n", uniform(rng, 1.2, 1.4)), ("diode_rs", uniform(rng, 10e-3, 40e-3)), ("diode_cjo", uniform(rng, 100e-12, 600e-12))]
+            }
+        }
+        // Dead time at both edges; the body diodes are pn cards (Vf ≈ 0.6–0.9 V).
+        "dead_time" => vec![
+            ("dead_time", uniform(rng, 10e-9, 60e-9)),
+            ("diode_is", log_uniform(rng, 1e-12, 1e-10)),
+            ("diode_n", uniform(rng, 1.0, 1.3)),
+            ("diode_rs", uniform(rng, 5e-3, 30e-3)),
+            ("diode_cjo", uniform(rng, 100e-12, 600e-12)),
+        ],
+        "load_esr" => vec![("load_esr", uniform(rng, 1e-3, 50e-3))],
+        "esl" => vec![("esl", uniform(rng, 0.5e-9, 3e-9))],
+        "param_drift" => {
+            let nominal = Params::default();
+            let (name, value) = [("L", nominal.l), ("C", nominal.c), ("Rc", nominal.rc)][rng.random_range(0..3)];
+            let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            vec![(name, value * (1.0 + sign * uniform(rng, 0.05, 0.25)))]
+        }
+        // A smooth knee (5 % of isat wide) somewhere inside the ripple's upper half.
+        "inductor_saturation" => vec![("sat", uniform(rng, 0.1, 0.3)), ("isat", io + uniform(rng, 0.0, 1.2))],
+        "cap_dc_bias" => vec![("dcbias", uniform(rng, 0.3, 0.6)), ("vrated", [6.3, 10.0, 16.0][rng.random_range(0..3)])],
+        _ => vec![],
+    }
+}
+
+/// Draws a harness dataset withholding `effect` (and `also`): Cl log-uniform 0.2–100 µF, a
+/// current load 0.3–5 A (light loads put the diode buck in DCM and reverse the synchronous
+/// buck's current within a period), sensor noise σ 1–4 mV on `vout` and 2–10 mA on `il`, the
+/// ADC 20–300 ns after the period start, gate ramps 2–20 ns, a switch-node capacitance
+/// 50 pF–1 nF, driver resistance 0.5–3 Ω into 1–3 nF; switches of 0.1–0.3 mΩ unless
+/// `switch_resistance` is withheld.
+pub fn draw_harness(effect: &'static str, also: Option<&'static str>, rng: &mut ChaCha8Rng) -> Truth {
+    let cl = log_uniform(rng, 0.2e-6, 100e-6);
+    let io = uniform(rng, 0.3, 5.0);
+    let noise = uniform(rng, 1e-3, 4e-3);
+    let mut settings: Vec<(&'static str, f64)> = vec![
+        ("noise_vout", noise),
+        ("noise_il", uniform(rng, 2e-3, 10e-3)),
+        ("adc_delay", uniform(rng, 20e-9, 300e-9)),
+        ("ramp", uniform(rng, 2e-9, 20e-9)),
+        ("csw", log_uniform(rng, 50e-12, 1e-9)),
+        ("rdrv", uniform(rng, 0.5, 3.0)),
+        ("cgs", uniform(rng, 1e-9, 3e-9)),
+        ("ron_hs", uniform(rng, 0.1e-3, 0.3e-3)),
+        ("ron_ls", uniform(rng, 0.1e-3, 0.3e-3)),
+    ];
+    for e in std::iter::once(effect).chain(also) {
+        for (key, value) in harness_effect(e, io, rng) {
+            // A withheld effect's value replaces the near-ideal default of the same key.
+            settings.retain(|(k, _)| *k != key);
+            settings.push((key, value));
+        }
+    }
+    Truth { effect, also, noise, cl, io, settings }
+}
+
+/// The harness's circuit for `truth`: the diode buck for `diode_drop`, the synchronous MOSFET
+/// buck for `dead_time`, the switch pair without dead time otherwise.
+fn harness_topology(truth: &Truth) -> &'static str {
+    let effects = truth.effects();
+    if effects.contains(&"diode_drop") {
+        "async"
+    } else if effects.contains(&"dead_time") {
+        "sync"
+    } else {
+        "sw"
+    }
+}
+
+/// A dataset of `periods` periods from the independent harness (its own noise, seeded by
+/// `seed`), to be diagnosed against the design's nominal values and the switched model.
+pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) -> Result<Case, EstimatorError> {
+    let dir = tempfile::tempdir().map_err(|e| EstimatorError::Io { path: "temporary directory".into(), source: e })?;
+    let out = dir.path().join("data.csv");
+    let mut args: Vec<String> = vec![
+        "--topology".into(),
+        harness_topology(&truth).into(),
+        "--periods".into(),
+        periods.to_string(),
+        "--seed".into(),
+        (seed % 1_000_000_007).max(1).to_string(),
+        "--cl".into(),
+        format!("{:e}", truth.cl),
+        "--io".into(),
+        format!("{}", truth.io),
+        "--effects".into(),
+        truth.effects().join(","),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    for (name, value) in &truth.settings {
+        args.extend([format!("--{}", name.replace('_', "-")), format!("{value:e}")]);
+    }
+    let output = Command::new(&harness.python)
+        .arg(&harness.script)
+        .args(&args)
+        .output()
+        .map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));
+    }
+    let data = DataSet::read_csv(&out)?;
+    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness" })
 }
 
 /// The packaged FMU, rebuilt by `cargo xtask fmu` when missing or older than its sources
@@ -291,6 +466,9 @@ pub struct Outcome {
     pub source: &'static str,
     /// What the diagnosis said (`none` or an effect), or the error it gave.
     pub verdict: String,
+    /// The effects the diagnosis named, in its order (empty for `none` and for an error; see
+    /// [`named_effects`]).
+    pub named: Vec<String>,
     /// Held-out NRMSE shrink of the verdict's effect [%] (sensor noise included).
     pub shrink_percent: Option<f64>,
     /// Share of the held-out gap above the true measurement noise
@@ -306,6 +484,8 @@ pub struct Outcome {
     pub cl: Option<(f64, [f64; 2])>,
     /// The test of the verdict's Cl interval (see [`gap::ClCheck`]).
     pub cl_check: Option<gap::ClCheck>,
+    /// The Cl estimate and CI95 the diagnosis ends with (the nominal's for `none`) [F].
+    pub final_cl: Option<(f64, [f64; 2])>,
     /// Wall time of the diagnosis [s].
     pub seconds: f64,
 }
@@ -315,6 +495,37 @@ impl Outcome {
     pub fn cl_in_ci95(&self) -> Option<bool> {
         self.cl.map(|(_, [lo, hi])| lo <= self.truth.cl && self.truth.cl <= hi)
     }
+
+    /// Whether the true Cl lies in the final CI95 (`None` without one).
+    pub fn final_cl_in_ci95(&self) -> Option<bool> {
+        self.final_cl.map(|(_, [lo, hi])| lo <= self.truth.cl && self.truth.cl <= hi)
+    }
+
+    /// Whether the diagnosis got the truth: a clean dataset called `none`, a one-effect dataset
+    /// with its effect named first, a two-effect dataset with both named (in any order).
+    pub fn hit(&self) -> bool {
+        if self.verdict.starts_with("error") {
+            return false;
+        }
+        match self.truth.effects().as_slice() {
+            [] => self.named.is_empty(),
+            [one] => self.named.first().is_some_and(|n| n == one),
+            all => all.iter().all(|e| self.named.iter().any(|n| n == e)),
+        }
+    }
+
+    /// What the diagnosis said, for tables: the named effects joined by `+`, or the verdict
+    /// (`none`, or the error).
+    pub fn said(&self) -> String {
+        if self.named.is_empty() { self.verdict.clone() } else { self.named.join("+") }
+    }
+}
+
+/// The effects a diagnosis names, in its order; empty for `none`. Every score goes through
+/// this one function.
+pub fn named_effects(dx: &gap::Diagnosis) -> Vec<String> {
+    // becomes dx.selected once gap has it
+    if dx.verdict == "none" { Vec::new() } else { vec![dx.verdict.clone()] }
 }
 
 /// Diagnoses `case` as a user would (data, nominal values, model; nothing else) and scores it.
@@ -327,18 +538,23 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         truth: case.truth.clone(),
         source: case.source,
         verdict: String::new(),
+        named: Vec::new(),
         shrink_percent: None,
         closed_percent: None,
         detectable: false,
         noise_floor: None,
         cl: None,
         cl_check: None,
+        final_cl: None,
         seconds,
     };
     match result {
         Ok(dx) => {
             let best = dx.selected.first();
             outcome.verdict.clone_from(&dx.verdict);
+            outcome.named = named_effects(&dx);
+            let (cl, ci95, _) = dx.final_cl();
+            outcome.final_cl = Some((cl, ci95));
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
             outcome.detectable = gap::gap_above(dx.gap_before.rms, case.truth.measurement_noise());
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
@@ -376,47 +592,69 @@ pub struct Scores {
     pub closed_70: usize,
     /// Correctly named datasets with the true Cl inside the verdict's CI95.
     pub cl_covered: usize,
+    /// Datasets withholding two effects.
+    pub pair_cases: usize,
+    /// Of those, with both named.
+    pub pair_named: usize,
+    /// Of those, with at least one named.
+    pub pair_one_named: usize,
+    /// Datasets with a final Cl interval.
+    pub final_cl_cases: usize,
+    /// Of those, with the true Cl inside it.
+    pub final_cl_covered: usize,
 }
 
-/// Scores `outcomes`.
+/// Scores `outcomes` (one-effect, clean and two-effect datasets apart; the gap and Cl scores
+/// over every correctly named dataset with an effect).
 pub fn score(outcomes: &[Outcome]) -> Scores {
-    let effect: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effect != "none").collect();
-    let named: Vec<&&Outcome> = effect.iter().filter(|o| o.verdict == o.truth.effect).collect();
-    let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effect == "none").collect();
+    let effect: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() == 1).collect();
+    let pair: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() >= 2).collect();
+    let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().is_empty()).collect();
+    let named: Vec<&Outcome> = outcomes.iter().filter(|o| !o.truth.effects().is_empty() && o.hit()).collect();
+    let finals: Vec<bool> = outcomes.iter().filter_map(Outcome::final_cl_in_ci95).collect();
     Scores {
         effect_cases: effect.len(),
-        named: named.len(),
+        named: effect.iter().filter(|o| o.hit()).count(),
         detectable_cases: effect.iter().filter(|o| o.detectable).count(),
-        detectable_named: named.iter().filter(|o| o.detectable).count(),
+        detectable_named: effect.iter().filter(|o| o.detectable && o.hit()).count(),
         clean_cases: clean.len(),
-        none: clean.iter().filter(|o| o.verdict == "none").count(),
+        none: clean.iter().filter(|o| o.hit()).count(),
         with_gap: named.iter().filter(|o| o.closed_percent.is_some()).count(),
         closed_70: named.iter().filter(|o| o.closed_percent.is_some_and(|s| s >= 70.0)).count(),
         cl_covered: named.iter().filter(|o| o.cl_in_ci95() == Some(true)).count(),
+        pair_cases: pair.len(),
+        pair_named: pair.iter().filter(|o| o.hit()).count(),
+        pair_one_named: pair.iter().filter(|o| o.truth.effects().iter().any(|e| o.named.iter().any(|n| n == e))).count(),
+        final_cl_cases: finals.len(),
+        final_cl_covered: finals.iter().filter(|c| **c).count(),
     }
 }
 
-/// The confusion matrix (rows: withheld effect, columns: verdict) as a Markdown table.
+/// The confusion matrix (rows: withheld effect(s), columns: what the diagnosis said) as a
+/// Markdown table.
 pub fn confusion_matrix(outcomes: &[Outcome]) -> String {
-    let mut rows: Vec<&str> = Vec::new();
+    let mut rows: Vec<String> = Vec::new();
     let mut cols: Vec<String> = Vec::new();
     for o in outcomes {
-        if !rows.contains(&o.truth.effect) {
-            rows.push(o.truth.effect);
+        if !rows.contains(&o.truth.label()) {
+            rows.push(o.truth.label());
         }
-        if !cols.contains(&o.verdict) {
-            cols.push(o.verdict.clone());
+        if !cols.contains(&o.said()) {
+            cols.push(o.said());
         }
     }
-    let order = |name: &str| plant_effects().position(|e| e == name).unwrap_or(usize::MAX);
-    rows.sort_by_key(|r| order(r));
+    let order = |name: &str| {
+        let first = name.split('+').next().unwrap_or(name);
+        (plant_effects().position(|e| e == first).unwrap_or(usize::MAX), name.contains('+'))
+    };
+    rows.sort_by_key(|r| (order(r), r.clone()));
     cols.sort_by_key(|c| (order(c), c.clone()));
     let mut s = format!("| withheld \\ verdict | {} |\n|---|{}\n", cols.join(" | "), "---:|".repeat(cols.len()));
     for r in &rows {
         let counts: Vec<String> = cols
             .iter()
             .map(|c| {
-                let n = outcomes.iter().filter(|o| o.truth.effect == *r && &o.verdict == c).count();
+                let n = outcomes.iter().filter(|o| &o.truth.label() == r && &o.said() == c).count();
                 if n == 0 { ".".to_string() } else { n.to_string() }
             })
             .collect();
