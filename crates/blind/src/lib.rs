@@ -524,8 +524,7 @@ impl Outcome {
 /// The effects a diagnosis names, in its order; empty for `none`. Every score goes through
 /// this one function.
 pub fn named_effects(dx: &gap::Diagnosis) -> Vec<String> {
-    // becomes dx.selected once gap has it
-    if dx.verdict == "none" { Vec::new() } else { vec![dx.verdict.clone()] }
+    dx.selected.iter().map(|e| e.name.to_string()).collect()
 }
 
 /// Diagnoses `case` as a user would (data, nominal values, model; nothing else) and scores it.
