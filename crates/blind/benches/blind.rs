@@ -4,14 +4,15 @@
 //! told; prints, per source, the confusion matrix, the targets and the diagnosis time.
 //!
 //! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]
-//! [--harness-per-effect K]` (0 turns a source off)
+//! [--harness-per-effect K] [--harness-adc-delay LO,HI]` (0 turns a source off; the harness's
+//! ADC delay range in seconds, default 20e-9,300e-9)
 //!
 //! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
 //! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of
 //! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    HARNESS_CASES, Harness, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
+    HARNESS_CASES, Harness, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
     draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
 };
 
@@ -121,6 +122,10 @@ fn main() {
     let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
     let harness_per_effect: usize = arg("--harness-per-effect").map_or(1, |s| s.parse().expect("--harness-per-effect K"));
+    let ranges = arg("--harness-adc-delay").map_or_else(HarnessRanges::default, |s| {
+        let v: Vec<f64> = s.split(',').map(|x| x.trim().parse().expect("--harness-adc-delay LO,HI [s]")).collect();
+        HarnessRanges { adc_delay: [v[0], *v.get(1).unwrap_or(&v[0])] }
+    });
     let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
     let no_spice = std::env::args().any(|a| a == "--no-spice");
     let root = fmu_fixture::root();
@@ -170,7 +175,7 @@ fn main() {
             for (i, (effect, also)) in HARNESS_CASES.iter().enumerate() {
                 let hindex = 1_000_000 + (round * HARNESS_CASES.len() + i) as u64;
                 index += 1;
-                let truth = draw_harness(effect, *also, &mut rng(seed, hindex));
+                let truth = draw_harness(effect, *also, &ranges, &mut rng(seed, hindex));
                 match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
                     Ok(case) => {
                         let o = diagnose_case(&case);
@@ -181,6 +186,9 @@ fn main() {
                 }
             }
         }
+    }
+    if harness.is_some() {
+        eprintln!("harness ADC delay drawn in [{:e}, {:e}] s", ranges.adc_delay[0], ranges.adc_delay[1]);
     }
     for (source, title) in [("fmu", "own FMU"), ("in-process", "own model in process"), ("ngspice", "own ngspice netlists"), ("harness", "independent harness")] {
         let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();

@@ -15,7 +15,7 @@ fn main() {
             .find(|(e, a)| a.map_or_else(|| (*e).to_string(), |a| format!("{e}+{a}")) == args[3])
             .copied()
             .expect("a HARNESS_CASES entry");
-        let truth = draw_harness(effect, also, &mut rng(seed, index));
+        let truth = draw_harness(effect, also, &blind::HarnessRanges::default(), &mut rng(seed, index));
         println!("{truth:?}");
         harness_case(truth, seed ^ index, &Harness::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)"), SAMPLES).unwrap()
     } else {

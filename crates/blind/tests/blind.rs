@@ -36,7 +36,7 @@ fn an_independent_harness_dataset_reads_and_diagnoses() {
         eprintln!("ngspice or .venv missing (scripts/setup): independent-harness test skipped");
         return;
     };
-    let truth = blind::draw_harness("load_esr", None, &mut rng(SEED, 1));
+    let truth = blind::draw_harness("load_esr", None, &blind::HarnessRanges::default(), &mut rng(SEED, 1));
     let case = blind::harness_case(truth.clone(), SEED, &harness, 1501).unwrap();
     assert_eq!(case.data.len(), 1501);
     assert_eq!(case.data.meta.keys().collect::<Vec<_>>(), ["U", "fs"], "metadata cut to fs and U");
