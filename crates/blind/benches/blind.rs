@@ -37,6 +37,12 @@ fn progress(index: u64, o: &Outcome) {
     eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}", index, o.source, o.truth.label(), o.said(), o.seconds);
 }
 
+/// A truth's settings, three significant digits each.
+fn settings(o: &Outcome) -> String {
+    let parts: Vec<String> = o.truth.settings.iter().map(|(k, v)| format!("{k} {v:.3e}")).collect();
+    parts.join(", ")
+}
+
 /// The targets of one source's datasets.
 fn report(source: &str, seed: u64, part: &[Outcome]) {
     println!("\n## {source} datasets ({}; seed {seed})\n", part.len());
@@ -87,12 +93,12 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     let with_effect = |o: &&Outcome| !o.truth.effects().is_empty() && o.hit();
     for o in part.iter().filter(with_effect).filter(|o| !o.closed_percent.is_some_and(|c| c >= 70.0)) {
         let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
-        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A; {})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, settings(o));
     }
     for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
-            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",
+            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
             o.truth.label(),
             o.truth.cl * 1e6,
             cl * 1e6,
@@ -101,19 +107,19 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
             100.0 * (cl / o.truth.cl - 1.0),
             (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
             o.truth.io,
-            o.truth.settings
+            settings(o)
         );
     }
     for o in part.iter().filter(|o| !o.hit()) {
         let limit = if o.detectable || o.truth.effects().is_empty() { "" } else { ", no gap above the noise" };
         let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
         println!(
-            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A, {:?})",
+            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})",
             o.truth.label(),
             o.said(),
             o.truth.cl * 1e6,
             o.truth.io,
-            o.truth.settings
+            settings(o)
         );
     }
 }
