@@ -4,14 +4,15 @@
 //! told; prints, per source, the confusion matrix, the targets and the diagnosis time.
 //!
 //! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]
-//! [--harness-per-effect K]` (0 turns a source off)
+//! [--harness-per-effect K] [--harness-adc-delay LO,HI]` (0 turns a source off; the harness's
+//! ADC delay range in seconds, default 20e-9,300e-9)
 //!
 //! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
 //! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of
 //! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    HARNESS_CASES, Harness, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
+    HARNESS_CASES, Harness, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
     draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
 };
 
@@ -34,6 +35,12 @@ fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
     let check = o.cl_check.as_ref().map_or_else(String::new, |c| format!(", Cl test H {:.1}{}", c.hausman, if c.consistent { "" } else { " (widened)" }));
     eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}", index, o.source, o.truth.label(), o.said(), o.seconds);
+}
+
+/// A truth's settings, three significant digits each.
+fn settings(o: &Outcome) -> String {
+    let parts: Vec<String> = o.truth.settings.iter().map(|(k, v)| format!("{k} {v:.3e}")).collect();
+    parts.join(", ")
 }
 
 /// The targets of one source's datasets.
@@ -86,12 +93,12 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     let with_effect = |o: &&Outcome| !o.truth.effects().is_empty() && o.hit();
     for o in part.iter().filter(with_effect).filter(|o| !o.closed_percent.is_some_and(|c| c >= 70.0)) {
         let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
-        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A, {:?})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, o.truth.settings);
+        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A; {})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, settings(o));
     }
     for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
-            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A, {:?})",
+            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
             o.truth.label(),
             o.truth.cl * 1e6,
             cl * 1e6,
@@ -100,19 +107,19 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
             100.0 * (cl / o.truth.cl - 1.0),
             (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
             o.truth.io,
-            o.truth.settings
+            settings(o)
         );
     }
     for o in part.iter().filter(|o| !o.hit()) {
         let limit = if o.detectable || o.truth.effects().is_empty() { "" } else { ", no gap above the noise" };
         let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
         println!(
-            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A, {:?})",
+            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})",
             o.truth.label(),
             o.said(),
             o.truth.cl * 1e6,
             o.truth.io,
-            o.truth.settings
+            settings(o)
         );
     }
 }
@@ -121,6 +128,10 @@ fn main() {
     let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
     let harness_per_effect: usize = arg("--harness-per-effect").map_or(1, |s| s.parse().expect("--harness-per-effect K"));
+    let ranges = arg("--harness-adc-delay").map_or_else(HarnessRanges::default, |s| {
+        let v: Vec<f64> = s.split(',').map(|x| x.trim().parse().expect("--harness-adc-delay LO,HI [s]")).collect();
+        HarnessRanges { adc_delay: [v[0], *v.get(1).unwrap_or(&v[0])] }
+    });
     let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
     let no_spice = std::env::args().any(|a| a == "--no-spice");
     let root = fmu_fixture::root();
@@ -170,7 +181,7 @@ fn main() {
             for (i, (effect, also)) in HARNESS_CASES.iter().enumerate() {
                 let hindex = 1_000_000 + (round * HARNESS_CASES.len() + i) as u64;
                 index += 1;
-                let truth = draw_harness(effect, *also, &mut rng(seed, hindex));
+                let truth = draw_harness(effect, *also, &ranges, &mut rng(seed, hindex));
                 match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
                     Ok(case) => {
                         let o = diagnose_case(&case);
@@ -181,6 +192,9 @@ fn main() {
                 }
             }
         }
+    }
+    if harness.is_some() {
+        eprintln!("harness ADC delay drawn in [{:e}, {:e}] s", ranges.adc_delay[0], ranges.adc_delay[1]);
     }
     for (source, title) in [("fmu", "own FMU"), ("in-process", "own model in process"), ("ngspice", "own ngspice netlists"), ("harness", "independent harness")] {
         let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();

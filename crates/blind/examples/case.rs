@@ -1,21 +1,34 @@
 //! One dataset of the blind bench, diagnosed with every candidate printed: for looking into a
-//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV] [--spice]`
-//! (CSV: also write the dataset there; `--spice`: the ngspice dataset of that index)
+//! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV] [--spice | --harness]`
+//! (CSV: also write the dataset there; `--spice`: the ngspice dataset of that index;
+//! `--harness`: the independent harness's, EFFECT as `a` or `a+b`, INDEX as the bench draws it:
+//! 1000000 + round·12 + position in `HARNESS_CASES`)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
-use blind::{Spice, bundled_fmu, draw, plant_case, rng, spice_case};
+use blind::{HARNESS_CASES, Harness, SAMPLES, Spice, bundled_fmu, draw, draw_harness, harness_case, plant_case, rng, spice_case};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (seed, index): (u64, u64) = (args[1].parse().unwrap(), args[2].parse().unwrap());
-    let effect = blind::plant_effects().find(|e| *e == args[3]).expect("effect name");
-    let truth = draw(effect, &mut rng(seed, index));
-    println!("{truth:?}");
-    let case = if args.iter().any(|a| a == "--spice") {
-        spice_case(truth, seed ^ index, &Spice::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)")).unwrap()
+    let case = if args.iter().any(|a| a == "--harness") {
+        let (effect, also) = HARNESS_CASES
+            .iter()
+            .find(|(e, a)| a.map_or_else(|| (*e).to_string(), |a| format!("{e}+{a}")) == args[3])
+            .copied()
+            .expect("a HARNESS_CASES entry");
+        let truth = draw_harness(effect, also, &blind::HarnessRanges::default(), &mut rng(seed, index));
+        println!("{truth:?}");
+        harness_case(truth, seed ^ index, &Harness::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)"), SAMPLES).unwrap()
     } else {
-        plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap()
+        let effect = blind::plant_effects().find(|e| *e == args[3]).expect("effect name");
+        let truth = draw(effect, &mut rng(seed, index));
+        println!("{truth:?}");
+        if args.iter().any(|a| a == "--spice") {
+            spice_case(truth, seed ^ index, &Spice::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)")).unwrap()
+        } else {
+            plant_case(truth, seed ^ index, bundled_fmu().as_deref()).unwrap()
+        }
     };
-    if let Some(path) = args.get(4).filter(|a| *a != "--spice") {
+    if let Some(path) = args.get(4).filter(|a| !a.starts_with("--")) {
         case.data.write_csv(std::path::Path::new(path)).unwrap();
     }
     let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };

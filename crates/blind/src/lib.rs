@@ -365,26 +365,45 @@ fn harness_effect(effect: &'static str, io: f64, rng: &mut ChaCha8Rng) -> Vec<(&
     }
 }
 
+/// Ranges of the harness's draws that a run may change.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HarnessRanges {
+    /// Delay of the ADC's sample after the period start, drawn uniformly in [lo, hi] [s].
+    pub adc_delay: [f64; 2],
+}
+
+impl Default for HarnessRanges {
+    /// The ADC 20–300 ns late.
+    fn default() -> Self {
+        Self { adc_delay: [20e-9, 300e-9] }
+    }
+}
+
 /// Draws a harness dataset withholding `effect` (and `also`): Cl log-uniform 0.2–100 µF, a
 /// current load 0.3–5 A (light loads put the diode buck in DCM and reverse the synchronous
 /// buck's current within a period), sensor noise σ 1–4 mV on `vout` and 2–10 mA on `il`, the
-/// ADC 20–300 ns after the period start, gate ramps 2–20 ns, a switch-node capacitance
-/// 50 pF–1 nF, driver resistance 0.5–3 Ω into 1–3 nF; switches of 0.1–0.3 mΩ unless
-/// `switch_resistance` is withheld.
-pub fn draw_harness(effect: &'static str, also: Option<&'static str>, rng: &mut ChaCha8Rng) -> Truth {
+/// ADC `ranges.adc_delay` after the period start, gate ramps 2–20 ns, a switch-node capacitance
+/// 50 pF–1 nF, driver resistance 0.5–3 Ω into 1–3 nF; switches of 1–3 µΩ (`SW` pair) or
+/// 20–50 µΩ (level-1 NMOS: a few µΩ let ngspice's step collapse at some edges) unless
+/// `switch_resistance` is withheld (0.1 mΩ already shows over 3001 samples at a few amperes).
+pub fn draw_harness(effect: &'static str, also: Option<&'static str>, ranges: &HarnessRanges, rng: &mut ChaCha8Rng) -> Truth {
     let cl = log_uniform(rng, 0.2e-6, 100e-6);
     let io = uniform(rng, 0.3, 5.0);
     let noise = uniform(rng, 1e-3, 4e-3);
+    // Drawn as a fraction so that the other draws do not depend on the range.
+    let adc = uniform(rng, 0.0, 1.0);
+    let effects: Vec<&str> = std::iter::once(effect).chain(also).collect();
+    let ron = if harness_topology(&effects) == "sw" { [1e-6, 3e-6] } else { [20e-6, 50e-6] };
     let mut settings: Vec<(&'static str, f64)> = vec![
         ("noise_vout", noise),
         ("noise_il", uniform(rng, 2e-3, 10e-3)),
-        ("adc_delay", uniform(rng, 20e-9, 300e-9)),
+        ("adc_delay", ranges.adc_delay[0] + adc * (ranges.adc_delay[1] - ranges.adc_delay[0])),
         ("ramp", uniform(rng, 2e-9, 20e-9)),
         ("csw", log_uniform(rng, 50e-12, 1e-9)),
         ("rdrv", uniform(rng, 0.5, 3.0)),
         ("cgs", uniform(rng, 1e-9, 3e-9)),
-        ("ron_hs", uniform(rng, 0.1e-3, 0.3e-3)),
-        ("ron_ls", uniform(rng, 0.1e-3, 0.3e-3)),
+        ("ron_hs", uniform(rng, ron[0], ron[1])),
+        ("ron_ls", uniform(rng, ron[0], ron[1])),
     ];
     for e in std::iter::once(effect).chain(also) {
         for (key, value) in harness_effect(e, io, rng) {
@@ -396,10 +415,9 @@ pub fn draw_harness(effect: &'static str, also: Option<&'static str>, rng: &mut 
     Truth { effect, also, noise, cl, io, settings }
 }
 
-/// The harness's circuit for `truth`: the diode buck for `diode_drop`, the synchronous MOSFET
-/// buck for `dead_time`, the switch pair without dead time otherwise.
-fn harness_topology(truth: &Truth) -> &'static str {
-    let effects = truth.effects();
+/// The harness's circuit for `effects`: the diode buck for `diode_drop`, the synchronous
+/// MOSFET buck for `dead_time`, the switch pair without dead time otherwise.
+fn harness_topology(effects: &[&str]) -> &'static str {
     if effects.contains(&"diode_drop") {
         "async"
     } else if effects.contains(&"dead_time") {
@@ -416,7 +434,7 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
     let out = dir.path().join("data.csv");
     let mut args: Vec<String> = vec![
         "--topology".into(),
-        harness_topology(&truth).into(),
+        harness_topology(&truth.effects()).into(),
         "--periods".into(),
         periods.to_string(),
         "--seed".into(),

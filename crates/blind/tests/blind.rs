@@ -27,3 +27,27 @@ fn every_withheld_effect_is_named_blind() {
     assert!(s.named + 1 >= s.effect_cases, "named {}/{}:\n{table}", s.named, s.effect_cases);
     assert!(10 * s.cl_covered >= 9 * s.named, "Cl covered {}/{}:\n{table}", s.cl_covered, s.named);
 }
+
+/// One short dataset of the independent harness (`scripts/spice/harness/harness.py`) reads as
+/// the data contract and diagnoses without an error; skipped without ngspice or the `.venv`.
+#[test]
+fn an_independent_harness_dataset_reads_and_diagnoses() {
+    let Some(harness) = blind::Harness::find(&fmu_fixture::root()) else {
+        eprintln!("ngspice or .venv missing (scripts/setup): independent-harness test skipped");
+        return;
+    };
+    let truth = blind::draw_harness("load_esr", None, &blind::HarnessRanges::default(), &mut rng(SEED, 1));
+    let case = blind::harness_case(truth.clone(), SEED, &harness, 1501).unwrap();
+    assert_eq!(case.data.len(), 1501);
+    assert_eq!(case.data.meta.keys().collect::<Vec<_>>(), ["U", "fs"], "metadata cut to fs and U");
+    assert!(case.data.il.is_some());
+    // The load's current, exactly; the duty, the PRBS levels.
+    assert!(case.data.io.iter().all(|&i| i == truth.io));
+    assert!(case.data.duty.iter().all(|&d| d == 0.4 || d == 0.6));
+    // The output sits near the averaged DC value 0.4…0.6 · 12 V − io·RL (ripple and transients
+    // within 0.5 V).
+    let mean = case.data.vout.iter().sum::<f64>() / case.data.vout.len() as f64;
+    assert!((mean - (6.0 - truth.io * 0.1)).abs() < 0.5, "mean vout {mean}");
+    let o = diagnose_case(&case);
+    assert!(!o.verdict.starts_with("error"), "{}", o.verdict);
+}

@@ -15,6 +15,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
 
 U, FS, L, RL = 12.0, 330e3, 3.3e-6, 0.1
+RON = 2e-6      # the harness's default (near-ideal) switch resistance
 T = 1.0 / FS
 D = 0.5
 N = 60          # data periods after the warm-up (the LC mode, zeta ~ 0.5, has decayed by then)
@@ -51,7 +52,7 @@ def test_ideal_switches_give_the_averaged_dc_value():
     # smooth switch edges are centred on the PWM instants, so they cost no volt-seconds.
     io = 1.5
     got = mean_vout(args("--topology", "sw", "--io", str(io)))
-    want = D * U - io * (RL + 1e-3)
+    want = D * U - io * (RL + RON)
     assert abs(got - want) < 2e-3, (got, want)
 
 
@@ -70,7 +71,7 @@ def test_async_dc_loss_is_off_time_diode_drop(diode):
     io = 2.5
     a = args("--topology", "async", "--io", str(io), "--rdrv", "0.5", "--cgs", "1e-9", "--ramp", "2e-9",
              "--diode-is", str(diode["is_"]), "--diode-n", str(diode["n"]), "--diode-rs", str(diode["rs"]))
-    loss = D * U - io * (RL + D * 1e-3) - mean_vout(a)
+    loss = D * U - io * (RL + D * RON) - mean_vout(a)
     vf = harness.diode_vf(io, {"is": diode["is_"], "n": diode["n"], "rs": diode["rs"]})
     assert abs(loss - (1 - D) * vf) < 0.12 * (1 - D) * vf, (loss, (1 - D) * vf)
 
@@ -166,4 +167,4 @@ def test_behavioural_elements_keep_the_dc_value():
     io = 2.0
     got = mean_vout(args("--topology", "sw", "--io", str(io), "--sat", "0.2", "--isat", "2.2",
                          "--dcbias", "0.4", "--esl", "1e-9", "--load-esr", "0.02"))
-    assert abs(got - (D * U - io * (RL + 1e-3))) < 2e-3
+    assert abs(got - (D * U - io * (RL + RON))) < 2e-3
