@@ -91,7 +91,8 @@ pub struct Case {
 /// every effect of the design table (`switching_ripple`: clean switched data against the
 /// averaged model).
 pub fn plant_effects() -> impl Iterator<Item = &'static str> {
-    std::iter::once("none").chain(gap::EFFECTS)
+    // The plant samples at the period start: a late acquisition comes from the harness only.
+    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| *e != "sample_delay"))
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).
@@ -487,7 +488,7 @@ pub struct Outcome {
     /// The effects the diagnosis named, in its order (empty for `none` and for an error; see
     /// [`named_effects`]).
     pub named: Vec<String>,
-    /// Held-out NRMSE shrink of the verdict's effect [%] (sensor noise included).
+    /// Held-out NRMSE shrink of the final model (the last selected effect) [%] (sensor noise included).
     pub shrink_percent: Option<f64>,
     /// Share of the held-out gap above the true measurement noise
     /// ([`Truth::measurement_noise`]) that the verdict's effect closed [%]; `None` when the
@@ -525,11 +526,20 @@ impl Outcome {
         if self.verdict.starts_with("error") {
             return false;
         }
+        let named = self.named_withheld();
         match self.truth.effects().as_slice() {
-            [] => self.named.is_empty(),
-            [one] => self.named.first().is_some_and(|n| n == one),
-            all => all.iter().all(|e| self.named.iter().any(|n| n == e)),
+            [] => named.is_empty(),
+            [one] => named.first().is_some_and(|n| n == one),
+            all => all.iter().all(|e| named.iter().any(|n| n == e)),
         }
+    }
+
+    /// The named effects less `sample_delay` where the data was acquired late (the harness's
+    /// ADC, in every one of its datasets): naming it is right there, and it is not the withheld
+    /// effect being scored.
+    pub fn named_withheld(&self) -> Vec<&String> {
+        let late = self.truth.settings.iter().any(|(k, v)| *k == "adc_delay" && *v > 0.0);
+        self.named.iter().filter(|n| !(late && *n == "sample_delay")).collect()
     }
 
     /// What the diagnosis said, for tables: the named effects joined by `+`, or the verdict
@@ -567,7 +577,8 @@ pub fn diagnose_case(case: &Case) -> Outcome {
     };
     match result {
         Ok(dx) => {
-            let best = dx.selected.first();
+            // The gap the final model leaves: the last selected effect's.
+            let best = dx.selected.last();
             outcome.verdict.clone_from(&dx.verdict);
             outcome.named = named_effects(&dx);
             let (cl, ci95, _) = dx.final_cl();
@@ -576,10 +587,8 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             outcome.detectable = gap::gap_above(dx.gap_before.rms, case.truth.measurement_noise());
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
-            // The final model's Cl: the last selected effect's.
-            let last = dx.selected.last();
-            outcome.cl = last.map(|e| (e.cl.estimate, e.cl.ci95));
-            outcome.cl_check = last.and_then(|e| e.cl.check.clone());
+            outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));
+            outcome.cl_check = best.and_then(|e| e.cl.check.clone());
         }
         Err(e) => outcome.verdict = format!("error: {e}"),
     }

@@ -54,6 +54,10 @@ pub struct Params {
     /// the load current `io`; 0 means no resistor (the ideal current-load circuit, bit for bit).
     /// With `load_esr` it sits at the node, across the series `Cl` + ESR branch. Both modes.
     pub rload: f64,
+    /// Instant after each period start at which the outputs are sampled [s] (a data
+    /// acquisition or ADC that reads a little late). Not a circuit value and not an FMU
+    /// parameter: the estimator's plant simulator reads `vout` there (`sample_delay` effect).
+    pub sample_delay: f64,
 }
 
 /// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
@@ -80,6 +84,7 @@ impl Default for Params {
             cap_dc_bias: 0.0,
             cap_rated_voltage: 16.0,
             rload: 0.0,
+            sample_delay: 0.0,
         }
     }
 }

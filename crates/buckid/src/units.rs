@@ -5,7 +5,7 @@
 pub fn unit_of(name: &str) -> &'static str {
     match name {
         "diode_drop" | "lsb" | "input_noise_rms" => "V",
-        "dead_time" => "s",
+        "dead_time" | "sample_delay" => "s",
         "switch_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" => "F",

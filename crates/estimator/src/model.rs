@@ -130,6 +130,9 @@ pub enum Free {
     /// `cap_dc_bias`: fraction of `Cl` lost at its rated voltage ([`Structure::Exact`] and
     /// [`Structure::Simulated`] only).
     CapDcBias,
+    /// `sample_delay`: the outputs sampled this long after each period start
+    /// ([`Structure::Simulated`] only).
+    SampleDelay,
 }
 
 impl Free {
@@ -149,6 +152,7 @@ impl Free {
             Free::InductorSaturation => "inductor_saturation",
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
+            Free::SampleDelay => "sample_delay",
         }
     }
 
@@ -185,6 +189,7 @@ impl Free {
             Free::InductorSaturation => p.inductor_saturation,
             Free::Isat => p.isat,
             Free::CapDcBias => p.cap_dc_bias,
+            Free::SampleDelay => p.sample_delay,
         }
     }
 
@@ -204,6 +209,7 @@ impl Free {
             Free::InductorSaturation => p.inductor_saturation = value,
             Free::Isat => p.isat = value,
             Free::CapDcBias => p.cap_dc_bias = value,
+            Free::SampleDelay => p.sample_delay = value,
         }
     }
 }
@@ -379,6 +385,9 @@ impl Model {
         }
         if free.is_empty() {
             return Err(EstimatorError::Config("at least one free parameter is needed".into()));
+        }
+        if let Some(f) = free.iter().find(|f| **f == Free::SampleDelay) {
+            return Err(EstimatorError::Config(format!("the free parameter `{}` is modelled by the simulated structure only, not by `{}`", f.name(), structure.name())));
         }
         if structure != Structure::Exact
             && let Some(f) = free.iter().find(|f| f.exact_only())

@@ -27,6 +27,9 @@ use crate::validate::{ResidualTests, fit_percent};
 /// Samples at the start left out of the criterion while the start error decays.
 pub const BURN_IN: usize = 50;
 
+/// Latest sampling instant of the `sample_delay` effect, as a fraction of the period.
+pub const MAX_SAMPLE_DELAY: f64 = 0.5;
+
 /// Forward-difference step in `ln θ`.
 const FD_STEP: f64 = 1e-4;
 
@@ -57,8 +60,8 @@ pub enum Criterion {
     Differenced,
 }
 
-/// Simulated `vout` at every period start of `data` with circuit values `p`, starting with both
-/// capacitors at `v0` volts.
+/// Simulated `vout` at every period start of `data` (or `p.sample_delay` after it) with circuit
+/// values `p`, starting with both capacitors at `v0` volts.
 pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, EstimatorError> {
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
@@ -74,11 +77,23 @@ pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, Estimat
     let s0 = conv.state();
     let il0 = s0.il + (v0 - s0.vo) * conv.params().load_conductance();
     conv.set_state(State { il: il0, vc: v0, vo: v0, ic: 0.0 });
+    let late = p.sample_delay;
+    if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
+        return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
+    }
     let mut out = Vec::with_capacity(data.len());
     for k in 0..data.len() {
-        out.push(conv.outputs().vout);
-        set_inputs(&mut conv, k)?;
-        conv.step(period).map_err(plant)?;
+        if late > 0.0 {
+            // The duty is latched at the period start; the reading comes `late` into it.
+            set_inputs(&mut conv, k)?;
+            conv.step(late).map_err(plant)?;
+            out.push(conv.outputs().vout);
+            conv.step(period - late).map_err(plant)?;
+        } else {
+            out.push(conv.outputs().vout);
+            set_inputs(&mut conv, k)?;
+            conv.step(period).map_err(plant)?;
+        }
     }
     if out.iter().all(|v| v.is_finite()) {
         Ok(out)

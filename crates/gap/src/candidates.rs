@@ -15,7 +15,7 @@ use crate::consistency::ClCheck;
 use crate::{DiagnoseOptions, Nominal, nominal_options};
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 12] = [
+pub const EFFECTS: [&str; 13] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -28,6 +28,7 @@ pub const EFFECTS: [&str; 12] = [
     "inductor_saturation",
     "cap_dc_bias",
     "param_drift",
+    "sample_delay",
 ];
 
 /// Akaike difference below which a model with as many parameters counts as clearly better
@@ -403,15 +404,19 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
-pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 7] = [
-    // A drop far above its start leaves a DCM fit in a wrong valley (Cl at 0.1 µF): two starts.
+pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 8] = [
+    // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
+    // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], dcm: false },
     SimulatedEffect { name: "dcm", extra: &[], also_from: &[], dcm: true },
-    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], also_from: &[], dcm: false },
-    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[], dcm: false },
-    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[], dcm: false },
-    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], also_from: &[], dcm: false },
-    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], also_from: &[60e-9], dcm: false },
+    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[0.4], dcm: false },
+    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[0.15], dcm: false },
+    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], also_from: &[40e-3], dcm: false },
+    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[0.3e-9], dcm: false },
+    // Not in the design table: data acquired a little after each period start (an ADC that
+    // samples late reads vout partway along the ripple, which mimics a different Cl).
+    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 50e-9)], also_from: &[200e-9, 600e-9], dcm: false },
 ];
 
 /// A nonlinear effect fitted with the plant simulator.

@@ -242,3 +242,43 @@ fn effects_not_found_are_bounded_and_the_bound_is_a_detection_limit() {
         }
     }
 }
+
+/// Data acquired 30 substeps of 100 (0.91 µs) after each period start, read off a converter
+/// stepped in hundredths of a period (not the simulator's own two-step reading), with 2 mV of
+/// noise: the late sample reads vout partway along the ripple, which the nominal model can only
+/// follow with a wrong Cl. `sample_delay` is found at the instant and Cl lands in its interval.
+#[test]
+fn late_sampling_is_sample_delay() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let cl = 2.2e-6;
+    let substeps = 100;
+    let late = 30;
+    let mut d = data(plant(Params { cl, ..Params::default() }, Mode::Switched));
+    let mut c = plant(Params { cl, ..Params::default() }, Mode::Switched);
+    let period = 1.0 / Params::default().fs;
+    c.set(VarId::Duty, d.duty[0]).unwrap();
+    c.set(VarId::Io, d.io[0]).unwrap();
+    c.initialize();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let noise = Normal::new(0.0, 2e-3).unwrap();
+    for k in 0..d.len() {
+        c.set(VarId::Duty, d.duty[k]).unwrap();
+        for s in 0..substeps {
+            if s == late {
+                d.vout[k] = c.outputs().vout + noise.sample(&mut rng);
+            }
+            c.step(period / substeps as f64).unwrap();
+        }
+    }
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
+    let delay = dx.selected[0].params["sample_delay"];
+    let truth = late as f64 * period / substeps as f64;
+    assert!((delay / truth - 1.0).abs() < 0.03, "sample delay {delay:e} vs {truth:e}");
+    let (est, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
+    // The nominal fit alone misses Cl by far more than its interval.
+    assert!((dx.gap_before.cl / cl - 1.0).abs() > 0.05, "nominal Cl {:e}", dx.gap_before.cl);
+}
