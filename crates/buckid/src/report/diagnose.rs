@@ -80,7 +80,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     let t0 = time.first().copied().unwrap_or(0.0);
     let trace = |y: &[f64]| -> Vec<(f64, f64)> { time.iter().zip(y).take(shown).map(|(t, y)| ((t - t0) * 1e3, *y)).collect() };
     let nominal_name = format!("nominal {} model", model_name(dx.nominal));
-    let after_name = format!("with {}", dx.verdict);
+    let after_name = format!("with {}", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(" + "));
     let mut series = vec![
         Series { name: "measured", color: "#999", points: trace(&t.measured), stems: false },
         Series { name: &nominal_name, color: "#1f77b4", points: trace(&t.nominal), stems: false },
@@ -92,7 +92,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         series.push(Series { name: "FMU as given", color: "#2ca02c", points: trace(sim), stems: false });
     }
     let overlay = Plot {
-        title: "Held-out data: measured, nominal model and the verdict's model",
+        title: "Held-out data: measured, nominal model and the final model",
         x_label: "time since hold-out start [ms]",
         y_label: "vout [V]",
         log_x: false,
@@ -140,8 +140,9 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         if ctx.assumed.is_empty() { String::new() } else { format!(" (assumed: {})", esc(&ctx.assumed.join("; "))) },
     ));
     page.html(&format!(
-        "<p><b>Verdict: {}</b>. Gap before: held-out NRMSE {:.4} (nominal fit, Cl = {:.4} µF).{}</p>",
+        "<p><b>Verdict: {}</b>{}. Gap before: held-out NRMSE {:.4} (nominal fit, Cl = {:.4} µF).{}</p>",
         esc(&dx.verdict),
+        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")) } else { String::new() },
         dx.gap_before.nrmse,
         dx.gap_before.cl * 1e6,
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {nrmse:.4}.", esc(path))),
