@@ -12,7 +12,8 @@ use estimator::model::{Free, Sampling, Signal, Structure};
 use estimator::pem::NoiseModel;
 use serde::Serialize;
 
-use crate::{IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
+use crate::units::{identified, unit_of, with_ci};
+use crate::{CircuitValue, IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
 
 /// Splits `NAME=VALUE`.
 pub(crate) fn pair(s: &str, flag: &str) -> Result<(String, String)> {
@@ -167,6 +168,46 @@ struct Output {
     source: String,
     excitation: Option<Excitation>,
     candidates: Vec<CandidateOut>,
+    /// Circuit values estimated with Cl (`--estimate`, `--estimate-missing`).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    estimated: BTreeMap<&'static str, Estimated>,
+}
+
+/// A circuit value estimated with Cl.
+#[derive(Debug, Serialize)]
+struct Estimated {
+    estimate: f64,
+    ci95: [f64; 2],
+    /// The CI95 pins it down (positive, finite, narrower than a decade).
+    identified: bool,
+}
+
+/// Cl and the circuit values asked for (`--estimate`), or missing from the data's metadata
+/// (`--estimate-missing`; an FMU run's data carries its circuit values).
+fn free_parameters(args: &IdentifyArgs, data: &DataSet) -> Vec<Free> {
+    let mut free = vec![Free::Cl];
+    let asked = args.estimate.iter().map(|c| match c {
+        CircuitValue::L => Free::L,
+        CircuitValue::Rl => Free::RL,
+        CircuitValue::C => Free::C,
+        CircuitValue::Rc => Free::Rc,
+    });
+    let missing = [Free::L, Free::RL, Free::C, Free::Rc].into_iter().filter(|f| args.estimate_missing && !data.meta.contains_key(f.name()));
+    for f in asked.chain(missing) {
+        if !free.contains(&f) {
+            free.push(f);
+        }
+    }
+    free
+}
+
+/// The estimates of the free circuit values other than Cl.
+fn estimated(c: &estimator::identify::Candidate, free: &[Free]) -> BTreeMap<&'static str, Estimated> {
+    free.iter()
+        .filter(|f| **f != Free::Cl)
+        .filter_map(|f| c.fit.estimate(f.name()))
+        .map(|e| (e.name, Estimated { estimate: e.value, ci95: [e.ci95.0, e.ci95.1], identified: identified([e.ci95.0, e.ci95.1]) }))
+        .collect()
 }
 
 #[derive(Debug, Serialize)]
@@ -258,7 +299,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             SamplingChoice::Average => Sampling::PeriodAverage,
         },
         outputs: if args.with_il { vec![Signal::Vout, Signal::Il] } else { vec![Signal::Vout] },
-        free: vec![Free::Cl],
+        free: free_parameters(args, &data),
         noise: match args.noise_model {
             Some(NoiseChoice::Oe) => NoiseModel::OutputError,
             Some(NoiseChoice::Kalman) => NoiseModel::Innovations,
@@ -296,6 +337,10 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         println!("excitation  {text}");
     }
     let mut out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
+    out.estimated = estimated(id.best(), &opts.free);
+    for (name, e) in &out.estimated {
+        println!("{name:11} {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)));
+    }
     out.excitation = excitation;
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&out)? + "\n").with_context(|| format!("writing {}", path.display()))?;
@@ -351,6 +396,7 @@ fn output(
             .iter()
             .map(|c| CandidateOut { model: c.structure.name(), cl: interval(c), fit_percent: fit_percent(c), seconds: c.seconds })
             .collect(),
+        estimated: BTreeMap::new(),
     }
 }
 

@@ -72,6 +72,23 @@ struct DiagnoseArgs {
     report: Option<PathBuf>,
 }
 
+/// A known circuit value that can be estimated with Cl.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum CircuitValue {
+    /// Inductance.
+    #[value(name = "L")]
+    L,
+    /// Inductor series resistance.
+    #[value(name = "RL")]
+    Rl,
+    /// Main capacitance.
+    #[value(name = "C")]
+    C,
+    /// ESR of the main capacitance.
+    #[value(name = "Rc")]
+    Rc,
+}
+
 /// The nominal model of a diagnosis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum NominalChoice {
@@ -120,6 +137,13 @@ struct IdentifyArgs {
     /// CSV data file (see the data contract in the README).
     #[arg(long)]
     data: Option<PathBuf>,
+    /// Also estimate this circuit value with Cl (L, RL, C or Rc; repeatable): its CI95 says
+    /// whether the data identifies it.
+    #[arg(long = "estimate", value_name = "NAME", value_enum)]
+    estimate: Vec<CircuitValue>,
+    /// Also estimate every circuit value (L, RL, C, Rc) the data's metadata does not give.
+    #[arg(long)]
+    estimate_missing: bool,
     /// Start value of Cl [F] (default: a grid search over 0.1–300 µF).
     #[arg(long)]
     cl_guess: Option<f64>,

@@ -340,3 +340,33 @@ fn diagnose_sweep_on_the_lab_fixture() -> anyhow::Result<()> {
     assert!(dir.path().join("report/index.html").exists());
     Ok(())
 }
+
+/// Partial metadata: the ngspice fixture without `# L`, `# RL`, `# C`, `# Rc`. The CLI says
+/// which values it assumed, and `--estimate-missing` estimates them with Cl: each within 0.1 %
+/// of the values ngspice simulated (noise-free data) and identified; `--estimate L` alone
+/// frees only L.
+#[test]
+fn missing_circuit_values_are_assumed_aloud_and_can_be_estimated() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = std::fs::read_to_string(spice_fixture("ideal.csv")).unwrap();
+    let partial: String = full.lines().filter(|l| !["# L =", "# RL =", "# C =", "# Rc ="].iter().any(|k| l.starts_with(k))).map(|l| format!("{l}\n")).collect();
+    let data = dir.path().join("partial.csv");
+    std::fs::write(&data, partial).unwrap();
+    let out = dir.path().join("id.json");
+    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--model", "pwm", "--estimate-missing", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for key in ["L", "RL", "C", "Rc"] {
+        assert!(stderr(&o).contains(&format!("assuming {key} = ")), "{}", stderr(&o));
+    }
+    let j = json(&out);
+    for (key, truth) in [("L", 3.3e-6), ("RL", 0.1), ("C", 100e-6), ("Rc", 0.1)] {
+        let e = &j["estimated"][key];
+        let est = e["estimate"].as_f64().unwrap();
+        assert!((est / truth - 1.0).abs() < 1e-3, "{key} {est:e} vs {truth:e}");
+        assert_eq!(e["identified"], true, "{key}: {e}");
+    }
+    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--model", "pwm", "--estimate", "L", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let estimated = json(&out)["estimated"].as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+    assert_eq!(estimated, ["L"]);
+}
