@@ -12,7 +12,7 @@ use estimator::model::{Free, Sampling, Signal, Structure};
 use estimator::pem::NoiseModel;
 use serde::Serialize;
 
-use crate::units::{identified, unit_of, with_ci};
+use crate::units::{identified, si, unit_of, with_ci};
 use crate::{CircuitValue, IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
 
 /// Splits `NAME=VALUE`.
@@ -406,7 +406,11 @@ fn print_summary(id: &Identification, source: &str) {
     let f = fit_percent(best);
     println!("source      {source}");
     println!("model       {} ({} estimation + {} held-out samples)", best.structure.name(), id.estimation_samples, id.validation_samples);
-    println!("Cl          {:.4} µF   95 % CI [{:.4}, {:.4}] µF   (±{:.2} %)", i.estimate * 1e6, i.ci95[0] * 1e6, i.ci95[1] * 1e6, 196.0 * i.rel_std);
+    if identified(i.ci95) {
+        println!("Cl          {:.4} µF   95 % CI [{:.4}, {:.4}] µF   (±{:.2} %)", i.estimate * 1e6, i.ci95[0] * 1e6, i.ci95[1] * 1e6, 196.0 * i.rel_std);
+    } else {
+        println!("Cl          not identified: the data does not pin it down (CI95 {} … {})", si(i.ci95[0], "F", 2), si(i.ci95[1], "F", 2));
+    }
     println!("held-out    fit {:.2} % simulation, {:.2} % one-step prediction", f.simulation, f.prediction);
     let r = &best.validation.residuals;
     println!(

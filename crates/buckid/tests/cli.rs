@@ -370,3 +370,18 @@ fn missing_circuit_values_are_assumed_aloud_and_can_be_estimated() {
     let estimated = json(&out)["estimated"].as_object().unwrap().keys().cloned().collect::<Vec<_>>();
     assert_eq!(estimated, ["L"]);
 }
+
+/// Data that cannot support an answer says so: a constant duty, io and vin excite nothing, and
+/// both commands refuse plainly instead of printing a Cl.
+#[test]
+fn unexcited_data_is_refused_plainly() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows: String = (0..600).map(|k| format!("{},0.5,12,1,{}\n", k as f64 / 330e3, 5.9 + 1e-3 * ((k * 7919) % 13) as f64)).collect();
+    let data = dir.path().join("flat.csv");
+    std::fs::write(&data, format!("# fs = 330000\ntime,duty,vin,io,vout\n{rows}")).unwrap();
+    for cmd in ["identify", "diagnose"] {
+        let o = buckid(&[cmd, "--data", data.to_str().unwrap()]);
+        assert_clean_failure(&o, "no excitation");
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("µF"), "{cmd} printed a Cl");
+    }
+}

@@ -133,6 +133,12 @@ pub fn identify(data: &DataSet, nominal: &Params, opts: &IdentifyOptions) -> Res
             "{n} samples are too few to estimate and validate (need ≥ 50 + 20)"
         )));
     }
+    let constant = |v: &[f64]| v[..n_est].iter().all(|x| *x == v[0]);
+    if constant(&data.duty) && constant(&data.io) && constant(&data.vin) {
+        return Err(EstimatorError::Data(
+            "no excitation: duty, io and vin are constant over the estimation part, so the data cannot tell Cl (step the duty, e.g. a PRBS)".into(),
+        ));
+    }
     let period = data.sample_period();
     let estimation = data.slice(0..n_est);
     let outputs: Vec<Signal> = opts

@@ -33,7 +33,7 @@ pub use noise::{noise_floor, noise_floor_estimate};
 #[non_exhaustive]
 pub enum GapError {
     /// The data or the nominal fit failed.
-    #[error("{0}")]
+    #[error(transparent)]
     Estimator(#[from] estimator::EstimatorError),
 }
 
