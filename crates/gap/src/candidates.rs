@@ -41,7 +41,12 @@ pub const IDENTIFIABLE_SPAN: f64 = 10.0;
 /// Whether every interval of `ci95` is positive, finite and narrower than a factor of
 /// [`IDENTIFIABLE_SPAN`].
 fn identified(ci95: &BTreeMap<String, [f64; 2]>) -> bool {
-    ci95.values().all(|&[lo, hi]| lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo)
+    ci95.values().all(|&c| identified_interval(c))
+}
+
+/// Whether one CI95 is positive, finite and narrower than a factor of [`IDENTIFIABLE_SPAN`].
+pub(crate) fn identified_interval([lo, hi]: [f64; 2]) -> bool {
+    lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo
 }
 
 /// How Cl's estimate moved once the effect was added.
@@ -128,7 +133,12 @@ pub struct EffectFit {
     /// nominal is consistent with the data, whatever the statistics say.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub within_tolerance: bool,
-    /// Significant, material and (for a drift) outside the tolerance: an effect to report.
+    /// A fitted parameter (Cl included) ended on a bound of its range, or a drift beyond
+    /// [`MAX_DRIFT`]: the fit has not converged to something physical, whatever it closes.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub at_bound: bool,
+    /// Significant, material, converged inside its range and (for a drift) outside the
+    /// tolerance: an effect to report.
     pub finding: bool,
     /// For an effect that is not significant and is linear at zero (`dead_time`, `load_esr`,
     /// `esl`, `cap_dc_bias`): the one-sided 95 % upper limit of its magnitude, how large it
@@ -146,6 +156,7 @@ impl EffectFit {
     pub fn standing(&self) -> &'static str {
         match (self.finding, self.significant, self.within_tolerance, self.material, self.identifiable) {
             (true, ..) => "finding",
+            _ if self.at_bound && self.significant => "ended on a bound",
             (false, true, true, ..) => "within tolerance",
             (false, true, false, false, _) => "significant, immaterial",
             (false, false, _, _, false) => "not identifiable",
@@ -183,6 +194,23 @@ pub(crate) const MIN_GAP_OVER_FLOOR: f64 = 0.1;
 /// floor's own uncertainty).
 pub fn gap_above(rms: f64, floor: f64) -> bool {
     rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
+}
+
+/// Largest relative drift of a "known" L, C or Rc that is taken as `param_drift` (twice the
+/// design table's ±20 %): beyond it the freed value stands in for something else.
+pub const MAX_DRIFT: f64 = 0.5;
+
+/// Relative distance from a range's bound within which a fit counts as ended on it.
+const AT_BOUND: f64 = 1e-3;
+
+/// Whether `value` of the variable `name` lies on (or beyond) a bound of its range in the
+/// variable table (names without a range, or a lower bound of 0 that a log-scale fit cannot
+/// reach, never are).
+fn on_bound(name: &str, value: f64) -> bool {
+    match buck_model::variables::by_name(name).map(|v| v.ty) {
+        Some(buck_model::variables::Type::Real { min, max, .. }) => value >= max * (1.0 - AT_BOUND) || (min > 0.0 && value <= min * (1.0 + AT_BOUND)),
+        _ => false,
+    }
 }
 
 /// Smallest share of the gap above the floor, left by the model an effect extends, that the
@@ -537,6 +565,10 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let closed_of_remaining = baseline.closed_of_material_gap(rms(&self::residual(against)), rms_after);
     let material = closed_of_remaining.is_some_and(|c| c >= MATERIAL_SHARE);
     let within_tolerance = t.drift.is_some_and(|d| d.abs() <= baseline.tolerance);
+    let cl = t.cand.fit.estimate("Cl").map(|e| e.value);
+    let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
+        || cl.is_some_and(|c| on_bound("Cl", c))
+        || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT);
     let fit = EffectFit {
         name,
         params: t.params,
@@ -556,9 +588,26 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         material,
         drift_percent: t.drift.map(|d| 100.0 * d),
         within_tolerance,
-        finding: significant && material && !within_tolerance,
+        at_bound,
+        finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
         residual,
     };
     (fit, t.cand)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit on the edge of a variable's range (cap_dc_bias 0–0.9) has not converged to
+    /// something physical; inside it, or a lower bound of 0 a log-scale fit only approaches, is fine.
+    #[test]
+    fn a_fit_on_the_edge_of_its_range_is_on_a_bound() {
+        assert!(on_bound("cap_dc_bias", 0.9));
+        assert!(on_bound("cap_dc_bias", 0.8995));
+        assert!(!on_bound("cap_dc_bias", 0.85));
+        assert!(!on_bound("cap_dc_bias", 1e-9));
+        assert!(!on_bound("no_such_variable", 1e9));
+    }
 }

@@ -104,6 +104,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         material,
         drift_percent: None,
         within_tolerance: false,
+        at_bound: false,
         finding: material,
         ruled_out_above: None,
         residual,

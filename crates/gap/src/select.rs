@@ -219,6 +219,11 @@ impl Extension {
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
     fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, String> {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
+        // An effect added on top must leave the ones before it in place: when one of theirs is
+        // no longer pinned down, the newcomer replaces rather than adds.
+        if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !crate::candidates::identified_interval([e.ci95.0, e.ci95.1])) {
+            return Err(format!("{} displaces `{}` (no longer identified)", self.name, lost.name));
+        }
         let estimate = |f: Free| cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()));
         let mut params = BTreeMap::new();
         let mut ci95 = BTreeMap::new();
@@ -268,11 +273,11 @@ impl Extension {
     }
 }
 
-/// The significant, material effect with the lowest Akaike criterion, a drift within tolerance
-/// included: when that drift explains best, the data is consistent with the nominal values
+/// The significant, material effect with the lowest Akaike criterion that converged inside its
+/// range, a drift within tolerance included: when that drift explains best, the data is consistent with the nominal values
 /// and no other effect should be named in its place.
 pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) -> &EffectFit) -> Option<T> {
-    items.filter(|t| fit(t).significant && fit(t).material).min_by(|a, b| fit(a).aic.total_cmp(&fit(b).aic))
+    items.filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound).min_by(|a, b| fit(a).aic.total_cmp(&fit(b).aic))
 }
 
 /// Held-out residual RMS of a fit.
