@@ -159,7 +159,8 @@ fn edges(t: &[f64], x: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let mid = 0.5 * (lo + hi);
     let hyst = 0.1 * (hi - lo);
     let (mut rising, mut falling) = (Vec::new(), Vec::new());
-    if !(hi - lo > 0.0) {
+    // Also false for NaN levels.
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return (rising, falling);
     }
     let mut state: Option<bool> = None; // Some(true): high
@@ -175,13 +176,14 @@ fn edges(t: &[f64], x: &[f64]) -> (Vec<f64>, Vec<f64>) {
         } else {
             state
         };
-        if let (Some(before), Some(after)) = (state, now) {
-            if before != after && last_cross > 0 {
-                let j = last_cross;
-                let f = (mid - x[j - 1]) / (x[j] - x[j - 1]);
-                let tc = t[j - 1] + f * (t[j] - t[j - 1]);
-                if after { rising.push(tc) } else { falling.push(tc) }
-            }
+        if let (Some(before), Some(after)) = (state, now)
+            && before != after
+            && last_cross > 0
+        {
+            let j = last_cross;
+            let f = (mid - x[j - 1]) / (x[j] - x[j - 1]);
+            let tc = t[j - 1] + f * (t[j] - t[j - 1]);
+            if after { rising.push(tc) } else { falling.push(tc) }
         }
         state = now;
     }

@@ -142,10 +142,10 @@ pub fn solve(c: &Circuit, e: &Effects, op: &OperatingPoint) -> Result<DcPoint, S
     if !(op.vin.is_finite() && op.io.is_finite()) {
         return Err(model_err(format!("vin {} or io {} is not finite", op.vin, op.io)));
     }
-    if let Some(r) = op.rload {
-        if !(r.is_finite() && r > 0.0) {
-            return Err(model_err(format!("rload {r} must be positive and finite")));
-        }
+    if let Some(r) = op.rload
+        && !(r.is_finite() && r > 0.0)
+    {
+        return Err(model_err(format!("rload {r} must be positive and finite")));
     }
     for (name, v) in [("diode drop", e.diode_drop), ("series resistance", e.r_series), ("dead time", e.dead_time)] {
         if !v.is_finite() {
