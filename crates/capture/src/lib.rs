@@ -55,21 +55,7 @@ impl Capture {
     /// Parses capture CSV text: `# key = value` lines, a header, then numbers; `time` and
     /// `vout` required, unknown columns ignored.
     pub fn parse_csv(text: &str) -> Result<Capture, CaptureError> {
-        let mut meta = BTreeMap::new();
-        let (mut body_start, mut header_line) = (0, 0);
-        for (i, line) in text.split_inclusive('\n').enumerate() {
-            let t = line.trim();
-            if let Some(rest) = t.strip_prefix('#') {
-                if let Some((k, v)) = rest.split_once('=') {
-                    meta.insert(k.trim().to_string(), v.trim().to_string());
-                }
-            } else if !t.is_empty() {
-                header_line = i + 1;
-                break;
-            }
-            body_start += line.len();
-        }
-        let body = text.get(body_start..).unwrap_or("");
+        let csv_header::Split { meta, body, header_line } = csv_header::split(text);
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }

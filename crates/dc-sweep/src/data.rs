@@ -79,22 +79,7 @@ impl Sweep {
 
     /// Parses sweep CSV text (see [`Sweep::read_csv`]).
     pub fn parse_csv(text: &str) -> Result<Sweep, SweepError> {
-        let mut meta = BTreeMap::new();
-        let mut body_start = 0;
-        let mut header_line = 0;
-        for (i, line) in text.split_inclusive('\n').enumerate() {
-            let trimmed = line.trim();
-            if let Some(rest) = trimmed.strip_prefix('#') {
-                if let Some((k, v)) = rest.split_once('=') {
-                    meta.insert(k.trim().to_string(), v.trim().to_string());
-                }
-            } else if !trimmed.is_empty() {
-                header_line = i + 1;
-                break;
-            }
-            body_start += line.len();
-        }
-        let body = text.get(body_start..).unwrap_or("");
+        let csv_header::Split { meta, body, header_line } = csv_header::split(text);
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }

@@ -149,24 +149,7 @@ impl DataSet {
 
     /// Parses CSV text (see [`DataSet::read_csv`]).
     pub fn parse_csv(text: &str) -> Result<DataSet, EstimatorError> {
-        let mut meta = BTreeMap::new();
-        let mut body_start = 0;
-        let mut header_line = 0;
-        for (i, line) in text.lines().enumerate() {
-            let trimmed = line.trim();
-            if let Some(rest) = trimmed.strip_prefix('#') {
-                if let Some((k, v)) = rest.split_once('=') {
-                    meta.insert(k.trim().to_string(), v.trim().to_string());
-                }
-                body_start += line.len() + 1;
-            } else if trimmed.is_empty() {
-                body_start += line.len() + 1;
-            } else {
-                header_line = i + 1;
-                break;
-            }
-        }
-        let body = text.get(body_start.min(text.len())..).unwrap_or("");
+        let csv_header::Split { mut meta, body, header_line } = csv_header::split(text);
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }
@@ -294,6 +277,20 @@ mod tests {
         assert_eq!(d.io, vec![2.0; 3]);
         assert_eq!(d.meta_f64("fs").unwrap(), Some(330000.0));
         assert!(d.il.is_none());
+    }
+
+    /// Excel and many oscilloscopes write CRLF line endings (and a byte-order mark): the same
+    /// data set as with LF (a CRLF file was once rejected with "required column `time` is
+    /// missing (found: = 10)").
+    #[test]
+    fn crlf_and_a_byte_order_mark_read_like_lf() {
+        let good = GOOD.replace("# U = 12\n", "# U = 12\n# io = 2\n");
+        let lf = DataSet::parse_csv(&good).unwrap();
+        for text in [good.replace('\n', "\r\n"), format!("\u{feff}{good}")] {
+            let d = DataSet::parse_csv(&text).unwrap();
+            assert_eq!((d.time.clone(), d.duty.clone(), d.vout.clone()), (lf.time.clone(), lf.duty.clone(), lf.vout.clone()));
+            assert_eq!(d.meta, lf.meta);
+        }
     }
 
     #[test]
