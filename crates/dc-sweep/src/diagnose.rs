@@ -199,6 +199,27 @@ pub struct EffectFit {
     pub note: Option<String>,
 }
 
+impl EffectFit {
+    /// An effect not (yet) fitted, with why.
+    fn untested(name: &'static str, note: Option<String>) -> Self {
+        Self {
+            name,
+            params: None,
+            ci95: None,
+            rms_after: None,
+            nrmse_after: None,
+            shrink_percent: None,
+            closed_percent: None,
+            p_value: None,
+            significant: false,
+            identifiable: false,
+            physical: false,
+            material: false,
+            note,
+        }
+    }
+}
+
 /// The final model: every selected effect's parameters from the last joint fit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FinalFit {
@@ -404,21 +425,7 @@ impl Problem<'_> {
     /// The candidate `extra` tested on top of `base`; the fit when it can be made.
     fn test(&self, base: &Fit, extra: Effect, nominal_sse: f64, opts: &Options) -> (EffectFit, Option<Fit>) {
         let p_total = base.theta.len() + extra.params().len();
-        let mut out = EffectFit {
-            name: extra.name(),
-            params: None,
-            ci95: None,
-            rms_after: None,
-            nrmse_after: None,
-            shrink_percent: None,
-            closed_percent: None,
-            p_value: None,
-            significant: false,
-            identifiable: false,
-            physical: false,
-            material: false,
-            note: None,
-        };
+        let mut out = EffectFit::untested(extra.name(), None);
         if self.distinct < p_total + 2 {
             out.note = Some(format!(
                 "the data cannot support it: {} parameter(s) need at least {} distinct operating points, the sweep has {}",
@@ -560,21 +567,7 @@ pub fn diagnose(sweep: &Sweep, nominal: &Circuit, opts: &Options) -> Result<Diag
     } else {
         effects = Effect::ALL
             .iter()
-            .map(|e| EffectFit {
-                name: e.name(),
-                params: None,
-                ci95: None,
-                rms_after: None,
-                nrmse_after: None,
-                shrink_percent: None,
-                closed_percent: None,
-                p_value: None,
-                significant: false,
-                identifiable: false,
-                physical: false,
-                material: false,
-                note: message.clone(),
-            })
+            .map(|e| EffectFit::untested(e.name(), message.clone()))
             .collect();
     }
     let fitted = problem.predict(&current.set, &current.theta).unwrap_or_else(|| expected.clone());
