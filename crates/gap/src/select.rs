@@ -296,7 +296,7 @@ const SCREEN_SHARE: f64 = 0.1;
 
 /// Most extensions fitted per step, the most promising first (each fit costs a simulation per
 /// parameter per iteration).
-const SCREEN_KEEP: usize = 3;
+const SCREEN_KEEP: usize = 2;
 
 /// Keeps the extensions worth a nonlinear fit on switched data (at most [`SCREEN_KEEP`], the
 /// largest promised drop first): the score (Lagrange
