@@ -347,7 +347,12 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if let Some(dir) = &args.report {
-        let file = crate::report::identify::write(dir, &id, &nominal, &source, excitation_text.as_deref())?;
+        let circuit: Vec<String> = assumed
+            .iter()
+            .map(|a| format!("assumed: {a}"))
+            .chain(out.estimated.iter().map(|(name, e)| format!("estimated with Cl: {name} = {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)))))
+            .collect();
+        let file = crate::report::identify::write(dir, &id, &nominal, &source, excitation_text.as_deref(), &circuit)?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())

@@ -12,7 +12,9 @@ use super::{Page, table};
 use crate::svg::{Plot, Series, esc};
 
 /// Writes `index.html` and the figures into `dir` and returns the page's path.
-pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str, excitation: Option<&str>) -> Result<PathBuf> {
+/// `circuit`: what the reader should know of the circuit values: those assumed, those
+/// estimated with Cl.
+pub fn write(dir: &Path, id: &Identification, nominal: &Params, source: &str, excitation: Option<&str>, circuit: &[String]) -> Result<PathBuf> {
     let best = id.best();
     let v = &best.validation;
     let shown = v.traces.time.len().min(400);
@@ -99,6 +101,10 @@ Residuals {} white (Ljung–Box {:.1} vs {:.1} at 99 %), {} of the input ({:.1} 
         r.ccf_limit,
     ));
     page.html(&table(&["model", "Cl [µF]", "95 % CI [µF]", "sim fit [%]", "pred fit [%]", "fit time [ms]"], &rows));
+    if !circuit.is_empty() {
+        let items: String = circuit.iter().map(|c| format!("<li>{}</li>", esc(c))).collect();
+        page.html(&format!("<h2>Circuit values</h2><ul>{items}</ul>"));
+    }
     page.figure("heldout", traces.render());
     page.figure("acf", acf.render());
     page.figure("ccf", ccf.render());
