@@ -127,16 +127,17 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
 
     let mut page = Page::new("buckid diagnose", "Sim-to-real gap diagnosis");
     page.html(&format!(
-        "<p>Data: <code>{}</code>, {} held-out samples of {}. Nominal model: <b>{}</b> with L = {:.4e} H, RL = {:.4e} Ω, C = {:.4e} F, Rc = {:.4e} Ω, fs = {:.6e} Hz{}.</p>",
+        "<p>Data: <code>{}</code>, {} held-out samples of {}. Nominal model: <b>{}</b> with L = {}, RL = {}, C = {}, Rc = {}, fs = {}{}{}.</p>",
         esc(ctx.source),
         t.measured.len(),
         ctx.data.len(),
         model_name(dx.nominal),
-        p.l,
-        p.rl,
-        p.c,
-        p.rc,
-        p.fs,
+        si(p.l, "H", 4),
+        si(p.rl, "Ω", 4),
+        si(p.c, "F", 4),
+        si(p.rc, "Ω", 4),
+        si(p.fs, "Hz", 6),
+        if p.rload > 0.0 { format!(", load resistor {}", si(p.rload, "Ω", 4)) } else { String::new() },
         if ctx.assumed.is_empty() { String::new() } else { format!(" (assumed: {})", esc(&ctx.assumed.join("; "))) },
     ));
     page.html(&format!(
