@@ -66,6 +66,10 @@ pub struct ClMove {
     /// simulator cannot fit).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub check_skipped: Option<String>,
+    /// For the final model when it still misses materially above the floor: the factor its
+    /// CI95's log half-widths were widened by (see [`model_error_inflation`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub widened_by: Option<f64>,
 }
 
 impl ClMove {
@@ -78,6 +82,7 @@ impl ClMove {
             moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
             check: None,
             check_skipped: None,
+            widened_by: None,
         }
     }
 }
@@ -261,6 +266,35 @@ impl Baseline {
             None => Some(100.0 * (1.0 - (rms_after / rms_before).powi(2))),
         }
     }
+}
+
+/// Lags of the residual's autocorrelation summed by [`model_error_inflation`]: three PRBS bits
+/// of 8 periods, the scale over which a model error of the step response stays correlated.
+const INFLATION_LAGS: usize = 24;
+
+/// How much wider an interval must be when the residual is coloured by model error: the
+/// long-run variance of the residual over its variance, `1 + 2·Σ (1 − k/(L+1))·ρ(k)` (Bartlett
+/// weights, `L` = [`INFLATION_LAGS`]), at least 1. The fit's `s²(JᵀJ)⁻¹` assumes white
+/// residuals; with a smooth sensitivity (Cl's is) the estimate's variance grows by about this
+/// factor when they are not. Near 1 for a right model.
+pub fn model_error_inflation(residual: &[f64]) -> f64 {
+    let n = residual.len();
+    if n <= 2 * INFLATION_LAGS {
+        return 1.0;
+    }
+    let mean = residual.iter().sum::<f64>() / n as f64;
+    let c = |k: usize| residual[k..].iter().zip(residual).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / n as f64;
+    let c0 = c(0);
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let sum: f64 = (1..=INFLATION_LAGS).map(|k| (1.0 - k as f64 / (INFLATION_LAGS + 1) as f64) * c(k) / c0).sum();
+    (1.0 + 2.0 * sum).max(1.0)
+}
+
+/// `ci95` around `estimate` with its log half-widths scaled by `factor`.
+pub(crate) fn widen(estimate: f64, [lo, hi]: [f64; 2], factor: f64) -> [f64; 2] {
+    [estimate * (lo / estimate).powf(factor), estimate * (hi / estimate).powf(factor)]
 }
 
 /// Root mean square of `r`.
@@ -609,5 +643,25 @@ mod tests {
         assert!(!on_bound("cap_dc_bias", 0.85));
         assert!(!on_bound("cap_dc_bias", 1e-9));
         assert!(!on_bound("no_such_variable", 1e9));
+    }
+
+    /// White residuals leave an interval alone; residuals coloured like a model error (AR(1),
+    /// ρ = 0.9: long-run over plain variance (1 + ρ)/(1 − ρ) = 19, less with the truncation)
+    /// widen it several times.
+    #[test]
+    fn coloured_residuals_inflate_and_white_ones_do_not() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let e: Vec<f64> = (0..1000).map(|_| Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(&mut rng))).collect();
+        let white = model_error_inflation(&e);
+        assert!((1.0..1.4).contains(&white), "white: {white}");
+        let mut x = 0.0;
+        let ar: Vec<f64> = e.iter().map(|v| {
+            x = 0.9 * x + v;
+            x
+        }).collect();
+        let coloured = model_error_inflation(&ar);
+        assert!((8.0..19.0).contains(&coloured), "AR(1): {coloured}");
     }
 }

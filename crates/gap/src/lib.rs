@@ -22,7 +22,7 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 
-pub use candidates::{ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material};
+pub use candidates::{ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
 pub use consistency::ClCheck;
 
 pub use locate::{Band, FloorSource, Group, Where};
@@ -103,6 +103,10 @@ pub struct Before {
     /// Why it was not made, when the verdict is `none`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_check_skipped: Option<String>,
+    /// When the verdict is `none` but the nominal still misses materially: the factor the
+    /// interval's log half-widths were widened by (see [`model_error_inflation`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_widened_by: Option<f64>,
 }
 
 /// Result of [`diagnose`].
@@ -136,13 +140,17 @@ impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
     /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let (cl, ci95, check, skipped) = match self.selected.last() {
-            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref()),
-            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref()),
+        let (cl, ci95, check, skipped, widened) = match self.selected.last() {
+            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by),
+            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by),
         };
-        let test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
+        let mut test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
+        if let Some(k) = widened {
+            test += &format!("; widened ×{k:.2} for the model error the residual still shows");
+        }
         (cl, ci95, test)
     }
+
 }
 
 /// The nominal model with Cl free.
@@ -203,14 +211,30 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
     };
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
-    let (mut cl_ci95, mut cl_check, mut cl_check_skipped) = (base_cl, None, None);
+    let (mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by) = (base_cl, None, None, None);
+    // A final model that still misses materially above the floor leaves its error in the
+    // residual, coloured: its Cl interval is widened by the square root of the residual's
+    // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
+    // its variance grows by).
+    let still_misses = |residual: &[f64], rms: f64| {
+        let misses = baseline.floor.is_some_and(|f| gap_material(rms, baseline.held_out, f, baseline.floor_samples));
+        misses.then(|| candidates::model_error_inflation(residual).sqrt())
+    };
     if let Some((last, before)) = selected.split_last_mut() {
         let mut fits: Vec<&EffectFit> = before.iter().collect();
         fits.push(last);
         let tested = test(&fits, last.cl.estimate, last.cl.ci95);
         (last.cl.ci95, last.cl.check, last.cl.check_skipped) = tested;
+        if let Some(k) = still_misses(&last.residual, last.rms_after) {
+            last.cl.ci95 = candidates::widen(last.cl.estimate, last.cl.ci95, k);
+            last.cl.widened_by = Some(k);
+        }
     } else {
         (cl_ci95, cl_check, cl_check_skipped) = test(&[], baseline.cl, base_cl);
+        if let Some(k) = still_misses(&residual, baseline.rms) {
+            cl_ci95 = candidates::widen(baseline.cl, cl_ci95, k);
+            cl_widened_by = Some(k);
+        }
     }
     // The verdict's entry in the table carries the same test when it is the final model.
     if let [only] = selected.as_slice()
@@ -237,6 +261,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             cl_ci95,
             cl_check,
             cl_check_skipped,
+            cl_widened_by,
         },
         location,
         effects,
