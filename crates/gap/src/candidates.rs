@@ -326,7 +326,7 @@ pub(crate) struct Trial {
 }
 
 /// Residual variance of a candidate's fit on the estimation part.
-fn variance(c: &Candidate) -> f64 {
+pub(crate) fn variance(c: &Candidate) -> f64 {
     c.fit.sigma[0].powi(2)
 }
 
@@ -492,6 +492,45 @@ pub(crate) struct SimulatedEffect {
     pub dcm: bool,
 }
 
+/// An effect's parameters and their CI95, by name.
+pub(crate) type Reported = (BTreeMap<String, f64>, BTreeMap<String, [f64; 2]>);
+
+impl SimulatedEffect {
+    /// Start values of the effect added to `base`: its parameters at their start values (the
+    /// saturation current half an amp above the mean load current `io_mean`), then each further
+    /// start of the first of them.
+    pub fn starts(&self, base: &Params, io_mean: f64) -> Vec<Params> {
+        let mut p = Params { dcm: base.dcm || self.dcm, ..*base };
+        for &(f, v) in self.extra {
+            f.set(&mut p, if v.is_nan() { io_mean.abs() + 0.5 } else { v });
+        }
+        let mut starts = vec![p];
+        if let Some(&(f, _)) = self.extra.first() {
+            starts.extend(self.also_from.iter().map(|&v| {
+                let mut q = p;
+                f.set(&mut q, v);
+                q
+            }));
+        }
+        starts
+    }
+
+    /// Its parameters and their CI95 as `cand` fitted them (`dcm` as 1).
+    pub fn report(&self, cand: &Candidate) -> Result<Reported, String> {
+        let mut params = BTreeMap::new();
+        let mut ci95 = BTreeMap::new();
+        for &(f, _) in self.extra {
+            let e = cand.fit.estimate(f.name()).ok_or_else(|| format!("no estimate of {}", f.name()))?;
+            params.insert(f.name().to_string(), e.value);
+            ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+        }
+        if self.dcm {
+            params.insert("dcm".to_string(), 1.0);
+        }
+        Ok((params, ci95))
+    }
+}
+
 /// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the
 /// circuit values `start` (Cl from the model it extends).
 /// An effect whose fit fails is returned with the reason.
@@ -499,36 +538,14 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
     let io = data.io.iter().sum::<f64>() / data.len() as f64;
     SIMULATED_EFFECTS
         .par_iter()
-        .map(|&SimulatedEffect { name, extra, also_from, dcm }| {
-            let mut p = Params { dcm, ..*start };
-            let mut free = vec![Free::Cl];
-            for &(f, v) in extra {
-                // The saturation current starts half an amp above the mean load current.
-                f.set(&mut p, if v.is_nan() { io.abs() + 0.5 } else { v });
-                free.push(f);
-            }
-            let mut starts = vec![p];
-            if let Some(&(f, _)) = extra.first() {
-                starts.extend(also_from.iter().map(|&v| {
-                    let mut q = p;
-                    f.set(&mut q, v);
-                    q
-                }));
-            }
+        .map(|effect| {
+            let starts = effect.starts(start, io);
+            let free: Vec<Free> = std::iter::once(Free::Cl).chain(effect.extra.iter().map(|&(f, _)| f)).collect();
             let trial = estimator::simulated::fit_from(data, &starts, &free, n_est, Criterion::OutputError).map_err(|e| e.to_string()).and_then(|cand| {
-                let mut params = BTreeMap::new();
-                let mut ci95 = BTreeMap::new();
-                for &(f, _) in extra {
-                    let e = cand.fit.estimate(f.name()).ok_or_else(|| format!("no estimate of {}", f.name()))?;
-                    params.insert(f.name().to_string(), e.value);
-                    ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
-                }
-                if dcm {
-                    params.insert("dcm".to_string(), 1.0);
-                }
-                Ok(Trial { cand, params, ci95, extra: extra.len(), not_nested: dcm, drift: None })
+                let (params, ci95) = effect.report(&cand)?;
+                Ok(Trial { cand, params, ci95, extra: effect.extra.len(), not_nested: effect.dcm, drift: None })
             });
-            (name, trial)
+            (effect.name, trial)
         })
         .collect()
 }

@@ -20,7 +20,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
 use rayon::prelude::*;
 
-use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, gap_material, judge};
+use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, gap_material, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -183,21 +183,10 @@ impl Stack {
         }
         let diode = has("diode_drop") || has("dcm");
         for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
+            let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
-            s.params.dcm |= e.dcm;
-            for &(f, v) in e.extra {
-                // The saturation current starts half an amp above the mean load current.
-                f.set(&mut s.params, if v.is_nan() { io_mean.abs() + 0.5 } else { v });
-                s.free.push(f);
-            }
-            let mut starts = vec![s.params];
-            if let Some(&(f, _)) = e.extra.first() {
-                starts.extend(e.also_from.iter().map(|&v| {
-                    let mut q = s.params;
-                    f.set(&mut q, v);
-                    q
-                }));
-            }
+            s.params = starts[0];
+            s.free.extend(e.extra.iter().map(|&(f, _)| f));
             out.push(Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm });
         }
         out
@@ -259,14 +248,8 @@ impl Extension {
                 params.insert("delay".to_string(), self.stack.delay as f64);
             }
             name => {
-                for &f in added {
-                    let e = estimate(f)?;
-                    params.insert(f.name().to_string(), e.value);
-                    ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
-                }
-                if name == "dcm" {
-                    params.insert("dcm".to_string(), 1.0);
-                }
+                let effect = SIMULATED_EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+                (params, ci95) = effect.report(&cand)?;
             }
         }
         Ok(Trial { cand, params, ci95, extra: self.extra, not_nested: self.not_nested, drift })
@@ -274,20 +257,10 @@ impl Extension {
 }
 
 /// The significant, material effect with the lowest Akaike criterion that converged inside its
-/// range, a drift within tolerance included: when that drift explains best, the data is consistent with the nominal values
-/// and no other effect should be named in its place.
+/// range, a drift within tolerance included: when that drift explains best, the data is
+/// consistent with the nominal values and no other effect should be named in its place.
 pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) -> &EffectFit) -> Option<T> {
     items.filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound).min_by(|a, b| fit(a).aic.total_cmp(&fit(b).aic))
-}
-
-/// Held-out residual RMS of a fit.
-fn against_rms(c: &Candidate) -> f64 {
-    crate::candidates::rms(&crate::candidates::residual(c))
-}
-
-/// Residual variance of a fit on the estimation part.
-fn variance_of(c: &Candidate) -> f64 {
-    c.fit.sigma[0].powi(2)
 }
 
 /// Least share of the gap above the floor that an extension must promise, linearized, to be
@@ -348,7 +321,8 @@ fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64
     promising.into_iter().take(SCREEN_KEEP).map(|(_, x)| x).collect()
 }
 
-/// Why the sequence ended.
+/// Forward selection from the first finding `first`: the findings in the order they were
+/// added, and why the sequence ended.
 ///
 /// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
 /// in the data (so an averaged model may add it).
@@ -386,8 +360,8 @@ pub(crate) fn forward(
         stack.params = against.fit.params;
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
         if stack.switched {
-            let gap_power = baseline.floor.map_or(0.0, |f| against_rms(&against).powi(2) - f * f).max(0.0);
-            extensions = screen(data, &stack, extensions, variance_of(&against), gap_power, n_est);
+            let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
+            extensions = screen(data, &stack, extensions, variance(&against), gap_power, n_est);
         }
         let trials: Vec<(usize, EffectFit, Candidate)> = extensions
             .par_iter()
