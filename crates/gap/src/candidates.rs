@@ -261,10 +261,17 @@ impl Baseline {
     /// `rms_after` closes [%], when that gap is material ([`gap_material`]). Without a floor
     /// (inputs that step every sample), the share of the whole residual power.
     pub(crate) fn closed_of_material_gap(&self, rms_before: f64, rms_after: f64) -> Option<f64> {
-        match self.floor {
-            Some(floor) => gap_material(rms_before, self.held_out, floor, self.floor_samples).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / (rms_before.powi(2) - floor.powi(2))),
-            None => Some(100.0 * (1.0 - (rms_after / rms_before).powi(2))),
+        match (self.floor, self.misses_materially(rms_before)) {
+            (Some(floor), Some(true)) => Some(100.0 * (rms_before.powi(2) - rms_after.powi(2)) / (rms_before.powi(2) - floor.powi(2))),
+            (Some(_), _) => None,
+            (None, _) => Some(100.0 * (1.0 - (rms_after / rms_before).powi(2))),
         }
+    }
+
+    /// Whether a held-out residual of RMS `rms` misses materially above the floor
+    /// ([`gap_material`]); `None` without a floor.
+    pub(crate) fn misses_materially(&self, rms: f64) -> Option<bool> {
+        self.floor.map(|f| gap_material(rms, self.held_out, f, self.floor_samples))
     }
 }
 

@@ -217,8 +217,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
     // its variance grows by).
     let still_misses = |residual: &[f64], rms: f64| {
-        let misses = baseline.floor.is_some_and(|f| gap_material(rms, baseline.held_out, f, baseline.floor_samples));
-        misses.then(|| candidates::model_error_inflation(residual).sqrt())
+        baseline.misses_materially(rms).unwrap_or(false).then(|| candidates::model_error_inflation(residual).sqrt())
     };
     if let Some((last, before)) = selected.split_last_mut() {
         let mut fits: Vec<&EffectFit> = before.iter().collect();

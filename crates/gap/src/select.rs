@@ -20,7 +20,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
 use rayon::prelude::*;
 
-use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, gap_material, judge, residual, rms, variance};
+use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -343,10 +343,10 @@ pub(crate) fn forward(
         Ok(s) => s,
         Err(e) => return (selected, format!("no further step: {e}")),
     };
-    let material = |rms: f64| baseline.floor.is_none_or(|f| gap_material(rms, baseline.held_out, f, baseline.floor_samples));
     loop {
         let last = selected.last().map_or(f64::NAN, |e| e.rms_after);
-        if !material(last) {
+        // Without a floor, only the candidates' own judgement ends the sequence.
+        if !baseline.misses_materially(last).unwrap_or(true) {
             return (selected, "the gap left is within the noise floor".to_string());
         }
         if selected.len() >= MAX_EFFECTS {
