@@ -120,9 +120,6 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         if let Some(hi) = e.ruled_out_above {
             params.push(format!("ruled out above {} (95 %)", si(hi, unit_of(e.name), 2)));
         }
-        if let Some(d) = e.drift_percent {
-            params.push(format!("{d:+.2} % from nominal"));
-        }
         println!(
             "effect      {:19} NRMSE {:.4} ({:+6.1} %)  closes {} of the gap over the floor  {:24}  Cl {}  {}",
             e.name,
@@ -170,11 +167,17 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
 }
 
 /// An effect's parameters with units and CI95 ("not identified" where the interval tells
-/// nothing); the nominal values a drift is measured from are left out.
-fn effect_params(e: &gap::EffectFit) -> Vec<String> {
-    e.params
+/// nothing), and a drift's distance from its nominal (the nominal value itself left out): for
+/// the CLI and the report alike.
+pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
+    let mut out: Vec<String> = e
+        .params
         .iter()
         .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm")
         .map(|(k, v)| format!("{k} = {}", with_ci(*v, e.ci95.get(k).copied(), unit_of(k))))
-        .collect()
+        .collect();
+    if let Some(d) = e.drift_percent {
+        out.push(format!("{d:+.2} % from nominal"));
+    }
+    out
 }

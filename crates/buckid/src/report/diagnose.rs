@@ -10,7 +10,8 @@ use gap::{Diagnosis, Group, Nominal};
 
 use super::{Page, table};
 use crate::svg::{Bar, Bars, Plot, Series, esc};
-use crate::units::{si, unit_of, with_ci};
+use crate::diagnose::effect_params;
+use crate::units::{si, with_ci};
 
 /// Most held-out samples drawn in the trace overlay.
 const MAX_TRACE: usize = 2000;
@@ -46,19 +47,9 @@ fn group_bars<'a>(title: &'a str, groups: &[Group]) -> Bars<'a> {
     }
 }
 
-/// An effect's parameters with units and CI95 ("not identified" where the interval tells
-/// nothing), one per line.
+/// An effect's parameters as the CLI prints them, one per line.
 fn params_html(e: &gap::EffectFit) -> String {
-    let mut lines: Vec<String> = e
-        .params
-        .iter()
-        .filter(|(k, _)| !k.ends_with("_nominal") && k.as_str() != "dcm")
-        .map(|(k, v)| format!("{} = {}", esc(k), esc(&with_ci(*v, e.ci95.get(k).copied(), unit_of(k)))))
-        .collect();
-    if let Some(d) = e.drift_percent {
-        lines.push(format!("{d:+.2} % from nominal"));
-    }
-    lines.join("<br>")
+    effect_params(e).iter().map(|p| esc(p)).collect::<Vec<_>>().join("<br>")
 }
 
 /// Writes `index.html` and the figures into `dir` and returns the page's path.
