@@ -7,6 +7,7 @@
 //! [`pem`] fit returns `Cl` with its confidence interval and validation on held-out data.
 #![forbid(unsafe_code)]
 
+pub mod candidate;
 pub mod data;
 mod error;
 pub mod experiment;

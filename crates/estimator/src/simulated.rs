@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::data::DataSet;
 use crate::error::EstimatorError;
-use crate::identify::{Candidate, Traces, Validation};
+use crate::candidate::{Candidate, Traces, Validation};
 use crate::model::{Free, Structure};
 use crate::pem::{self, Fit};
 use crate::validate::{ResidualTests, fit_percent};

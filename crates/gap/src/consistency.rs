@@ -19,59 +19,9 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::simulated::{Criterion, fit_with};
 use estimator::validate::{Z_975, chi2_99};
-use serde::Serialize;
 
-use crate::candidates::EffectFit;
+use crate::effect::{ClCheck, EffectFit};
 use crate::select::Stack;
-
-/// The test of Cl's interval.
-#[derive(Debug, Clone, Serialize)]
-pub struct ClCheck {
-    /// Cl of the output-error fit, the one tested [F].
-    pub estimate: f64,
-    /// Cl fitted through the high-pass criterion, same parameters free [F].
-    pub high_pass: f64,
-    /// Its CI95 [F].
-    pub high_pass_ci95: [f64; 2],
-    /// The output-error fit's own CI95, which assumes the model is right [F].
-    pub model_ci95: [f64; 2],
-    /// Hausman statistic of the difference in `ln Cl` (χ²₁ when the model is right).
-    pub hausman: f64,
-    /// Its 99 % critical value.
-    pub limit: f64,
-    /// The two estimates agree; when not, the reported CI95 is the hull of both intervals
-    /// widened by their distance on each side.
-    pub consistent: bool,
-}
-
-impl ClCheck {
-    /// The CI95 to report: the model's own, or, when the estimates disagree, the hull of both
-    /// intervals widened by the estimates' distance on each side (in `ln Cl`).
-    pub fn ci95(&self) -> [f64; 2] {
-        if self.consistent {
-            return self.model_ci95;
-        }
-        let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
-        [self.model_ci95[0].min(self.high_pass_ci95[0]) / d, self.model_ci95[1].max(self.high_pass_ci95[1]) * d]
-    }
-}
-
-impl std::fmt::Display for ClCheck {
-    /// One sentence on the test, for people.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.consistent {
-            write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1})", self.high_pass * 1e6, self.hausman, self.limit)
-        } else {
-            write!(
-                f,
-                "widened: the high-pass refit gives {:.4} µF (Hausman {:.1} > {:.1}), so the model still misses something that moves Cl",
-                self.high_pass * 1e6,
-                self.hausman,
-                self.limit
-            )
-        }
-    }
-}
 
 /// Standard deviation of `ln Cl` from a CI95 of the log-normal approximation.
 fn log_sd([lo, hi]: [f64; 2]) -> f64 {

@@ -10,20 +10,23 @@
 
 mod candidates;
 mod consistency;
+mod effect;
 mod limits;
 mod locate;
 mod noise;
+mod options;
 mod quantization;
 mod select;
 
 use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::{IdentifyOptions, identify};
-use estimator::model::{Free, Structure};
+use estimator::model::Structure;
 use serde::Serialize;
 
-pub use candidates::{ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
-pub use consistency::ClCheck;
+pub use effect::{ClCheck, ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
+pub use options::{DiagnoseOptions, Nominal};
+use options::nominal_options;
 
 pub use locate::{Band, FloorSource, Group, Where};
 pub use noise::{noise_floor, noise_floor_estimate};
@@ -35,36 +38,6 @@ pub enum GapError {
     /// The data or the nominal fit failed.
     #[error(transparent)]
     Estimator(#[from] estimator::EstimatorError),
-}
-
-/// The simulation model the data is compared with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Nominal {
-    /// The averaged circuit (no switching ripple): `switching_ripple` is a candidate.
-    #[default]
-    Averaged,
-    /// The ideal switched circuit sampled at period starts (the sampled-data PWM model): the
-    /// ripple is part of the model, so `switching_ripple` is not a candidate.
-    Switched,
-}
-
-/// Settings of a diagnosis.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DiagnoseOptions {
-    /// Fraction of the samples, at the end, held out for judging.
-    pub holdout: f64,
-    /// The nominal simulation model.
-    pub nominal: Nominal,
-    /// Relative tolerance of the nominal circuit values: a `param_drift` within it is
-    /// consistent with the nominal, not a finding.
-    pub tolerance: f64,
-}
-
-impl Default for DiagnoseOptions {
-    fn default() -> Self {
-        Self { holdout: 1.0 / 3.0, nominal: Nominal::Averaged, tolerance: 0.01 }
-    }
 }
 
 /// Held-out traces for plots: the measured output, the nominal model's and the verdict's
@@ -153,15 +126,6 @@ impl Diagnosis {
 
 }
 
-/// The nominal model with Cl free.
-fn nominal_options(opts: &DiagnoseOptions) -> IdentifyOptions {
-    let structure = match opts.nominal {
-        Nominal::Averaged => Structure::Averaged,
-        Nominal::Switched => Structure::Pwm,
-    };
-    IdentifyOptions { structures: vec![structure], free: vec![Free::Cl], holdout: opts.holdout, ..IdentifyOptions::default() }
-}
-
 /// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
 ///
 /// A switched nominal is the sampled-data PWM model, linear in the state; where that cannot be
@@ -175,12 +139,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         fit => fit?,
     };
     let base = base.best().clone();
-    let residual = candidates::residual(&base);
+    let residual = effect::residual(&base);
     let floor = noise::noise_floor_estimate(data);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
-    let baseline = candidates::Baseline {
-        nrmse: candidates::held_out_nrmse(&base),
-        rms: candidates::rms(&residual),
+    let baseline = effect::Baseline {
+        nrmse: effect::held_out_nrmse(&base),
+        rms: effect::rms(&residual),
         cl: base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value),
         floor: floor.map(|f| f.0),
         floor_samples: floor.map_or(0, |f| f.1),
@@ -217,7 +181,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
     // its variance grows by).
     let still_misses = |residual: &[f64], rms: f64| {
-        baseline.misses_materially(rms).unwrap_or(false).then(|| candidates::model_error_inflation(residual).sqrt())
+        baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
     };
     if let Some((last, before)) = selected.split_last_mut() {
         let mut fits: Vec<&EffectFit> = before.iter().collect();
@@ -225,13 +189,13 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         let tested = test(&fits, last.cl.estimate, last.cl.ci95);
         (last.cl.ci95, last.cl.check, last.cl.check_skipped) = tested;
         if let Some(k) = still_misses(&last.residual, last.rms_after) {
-            last.cl.ci95 = candidates::widen(last.cl.estimate, last.cl.ci95, k);
+            last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);
         }
     } else {
         (cl_ci95, cl_check, cl_check_skipped) = test(&[], baseline.cl, base_cl);
         if let Some(k) = still_misses(&residual, baseline.rms) {
-            cl_ci95 = candidates::widen(baseline.cl, cl_ci95, k);
+            cl_ci95 = effect::widen(baseline.cl, cl_ci95, k);
             cl_widened_by = Some(k);
         }
     }

@@ -113,7 +113,7 @@ fn psd(x: &[f64]) -> Vec<f64> {
 fn group(label: String, r: &[f64], floor_rms: f64) -> Group {
     let n = r.len().max(1) as f64;
     let mean = r.iter().sum::<f64>() / n;
-    let rms = crate::candidates::rms(r);
+    let rms = crate::effect::rms(r);
     Group { label, samples: r.len(), rms, mean, rms_over_floor: rms / floor_rms.max(1e-300) }
 }
 
@@ -132,7 +132,7 @@ pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: Floo
         }
         Floor::Residual(r) => {
             let r = &r[..n.min(r.len())];
-            (crate::candidates::rms(r), psd(r), FloorSource::ModelResidual)
+            (crate::effect::rms(r), psd(r), FloorSource::ModelResidual)
         }
     };
     let edges: Vec<usize> = (0..=BANDS).map(|b| (((bins - 1) as f64).powf(b as f64 / BANDS as f64)).round() as usize).collect();

@@ -10,7 +10,7 @@ use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::validate::nrmse;
 
-use crate::candidates::{Baseline, ClMove, EffectFit, MIN_GAP_OVER_FLOOR, rms};
+use crate::effect::{Baseline, ClMove, EffectFit, MIN_GAP_OVER_FLOOR, rms};
 
 
 /// Fraction of the readings that must lie on the lattice.

@@ -20,7 +20,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
 use rayon::prelude::*;
 
-use crate::candidates::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, judge, residual, rms, variance};
+use crate::effect::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -210,7 +210,7 @@ impl Extension {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
         // An effect added on top must leave the ones before it in place: when one of theirs is
         // no longer pinned down, the newcomer replaces rather than adds.
-        if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !crate::candidates::identified_interval([e.ci95.0, e.ci95.1])) {
+        if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !crate::effect::identified_interval([e.ci95.0, e.ci95.1])) {
             return Err(format!("{} displaces `{}` (no longer identified)", self.name, lost.name));
         }
         let estimate = |f: Free| cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()));
