@@ -14,6 +14,7 @@ pub mod experiment;
 pub mod fmu_plant;
 pub mod identify;
 pub mod model;
+pub mod noise;
 pub mod pem;
 pub mod simulated;
 pub mod validate;

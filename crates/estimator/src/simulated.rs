@@ -8,6 +8,16 @@
 //! Its cost is a simulation per free parameter per iteration (about 3–10 ms each for 3001
 //! periods with state events), so it serves few parameters.
 //!
+//! The instant the data was read at (`sample_delay`), where free and the data has `il`, is
+//! pinned by the inductor current: read late, `il` moves by the inductor's slope times the
+//! delay (a large, clean signal), while a resistance in series with `Cl` or an inductance in the
+//! capacitor branch, which move the sampled `vout` much as a late reading does, leave it alone.
+//! The delay is fitted first on both channels (each weighted by its white noise estimated from
+//! the data, [`crate::noise`]), then held while everything else is fitted to `vout` alone: the
+//! current would otherwise weigh on `Cl` with its own precision, and a small error in how the
+//! model draws it (gate ramps, a switch node's charge) would bias `Cl` by many of its too-narrow
+//! standard deviations.
+//!
 //! The initial output voltage `v0` (of both capacitors) is estimated with the parameters: in DCM
 //! the converter has a slow first-order mode and forgets its start only after hundreds of
 //! periods. The initial inductor current is the averaged DC value of the first sample's inputs;
@@ -39,6 +49,10 @@ const V0_STEP: f64 = 1e-4;
 /// Start values of Cl tried besides the given one [F] (half a decade apart over the thesis range).
 const CL_GRID: [f64; 6] = [0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6];
 
+/// Smallest noise level a channel is credited with, as a fraction of its range: noise-free
+/// (simulated) data then weights `vout` and `il` by their spans instead of by rounding error.
+const NOISE_RESOLUTION: f64 = 1e-5;
+
 /// Iteration limit of Levenberg–Marquardt.
 const MAX_ITERATIONS: usize = 40;
 
@@ -63,6 +77,11 @@ pub enum Criterion {
 /// Simulated `vout` at every period start of `data` (or `p.sample_delay` after it) with circuit
 /// values `p`, starting with both capacitors at `v0` volts.
 pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, EstimatorError> {
+    simulate_outputs(p, data, v0).map(|(vout, _)| vout)
+}
+
+/// [`simulate`], with the inductor current at the same instants.
+pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
     let mut conv = Converter::new(Params { fs: 1.0 / period, ..*p }, Mode::Switched);
@@ -82,21 +101,24 @@ pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, Estimat
         return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
     let mut out = Vec::with_capacity(data.len());
+    let mut il = Vec::with_capacity(data.len());
     for k in 0..data.len() {
         if late > 0.0 {
             // The duty is latched at the period start; the reading comes `late` into it.
             set_inputs(&mut conv, k)?;
             conv.step(late).map_err(plant)?;
             out.push(conv.outputs().vout);
+            il.push(conv.state().il);
             conv.step(period - late).map_err(plant)?;
         } else {
             out.push(conv.outputs().vout);
+            il.push(conv.state().il);
             set_inputs(&mut conv, k)?;
             conv.step(period).map_err(plant)?;
         }
     }
-    if out.iter().all(|v| v.is_finite()) {
-        Ok(out)
+    if out.iter().chain(&il).all(|v| v.is_finite()) {
+        Ok((out, il))
     } else {
         Err(EstimatorError::Fit("the simulation left the finite range".into()))
     }
@@ -111,9 +133,24 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
     p
 }
 
-/// Residuals `y − ŷ` over the criterion samples `BURN_IN..n_est` at the unknowns
-/// `[ln θ | v0]`, differenced for [`Criterion::Differenced`] (`None` if the simulation fails).
-fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion) -> Option<DVector<f64>> {
+/// Weight of the measured `il` against `vout` (`σ_vout / σ_il`, each the white noise of its
+/// channel, at least [`NOISE_RESOLUTION`] of its range), or `None` when the data has no `il` or
+/// its noise cannot be told from the data.
+pub fn il_weight(data: &DataSet) -> Option<f64> {
+    let il = data.il.as_ref()?;
+    let sigma = |series: &[f64]| -> Option<f64> {
+        let (white, _) = crate::noise::white_noise(data, series)?;
+        let (lo, hi) = series.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        Some(white.max(NOISE_RESOLUTION * (hi - lo)))
+    };
+    let weight = sigma(&data.vout)? / sigma(il)?;
+    (weight.is_finite() && weight > 0.0).then_some(weight)
+}
+
+/// Residuals over the criterion samples `BURN_IN..n_est` at the unknowns `[ln θ | v0]`: those of
+/// `vout`, then, with an `il_weight`, those of `il` times the weight; each channel differenced
+/// for [`Criterion::Differenced`] (`None` if the simulation fails).
+fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Option<DVector<f64>> {
     // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
     let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
         Some(Type::Real { min, max, .. }) => (min..=max).contains(&l.exp()),
@@ -123,19 +160,23 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
         return None;
     }
     let v0 = unknowns[free.len()];
-    let sim = simulate(&with_logs(start, free, unknowns), estimation, v0).ok()?;
-    let error = estimation.vout[BURN_IN..].iter().zip(&sim[BURN_IN..]).map(|(y, s)| y - s);
-    Some(match criterion {
-        Criterion::OutputError => DVector::from_iterator(estimation.len() - BURN_IN, error),
-        Criterion::Differenced => {
-            let e: Vec<f64> = error.collect();
-            DVector::from_iterator(e.len() - 1, e.windows(2).map(|w| w[1] - w[0]))
+    let (vout, il) = simulate_outputs(&with_logs(start, free, unknowns), estimation, v0).ok()?;
+    let errors = |measured: &[f64], simulated: &[f64], weight: f64| -> Vec<f64> {
+        let e = measured[BURN_IN..].iter().zip(&simulated[BURN_IN..]).map(|(y, s)| weight * (y - s));
+        match criterion {
+            Criterion::OutputError => e.collect(),
+            Criterion::Differenced => e.collect::<Vec<f64>>().windows(2).map(|w| w[1] - w[0]).collect(),
         }
-    })
+    };
+    let mut r = errors(&estimation.vout, &vout, 1.0);
+    if let (Some(w), Some(measured)) = (il_weight, estimation.il.as_ref()) {
+        r.extend(errors(measured, &il, w));
+    }
+    Some(DVector::from_vec(r))
 }
 
 /// Jacobian of the simulated output (`−∂r/∂[ln θ | v0]`) by forward differences from `r0`.
-fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
     let mut j = DMatrix::zeros(r0.len(), unknowns.len());
     for i in 0..unknowns.len() {
         let h = if i < free.len() { FD_STEP } else { V0_STEP };
@@ -143,7 +184,7 @@ fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSe
         let at = |step: f64| {
             let mut u = unknowns.to_vec();
             u[i] += step;
-            residuals(start, free, &u, estimation, criterion).map(|r| (r, step))
+            residuals(start, free, &u, estimation, criterion, il_weight).map(|r| (r, step))
         };
         let (ri, step) = at(h).or_else(|| at(-h))?;
         j.set_column(i, &((r0 - ri) / step));
@@ -214,66 +255,51 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
             }))
             .collect();
     }
-    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion).map_or(f64::INFINITY, |r| r.norm_squared());
-    let mut logs = if tries.len() == 1 {
+    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, None).map_or(f64::INFINITY, |r| r.norm_squared());
+    let logs = if tries.len() == 1 {
         tries.swap_remove(0)
     } else {
         tries.into_iter().map(|u| (cost_at(&u), u)).min_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, u)| u).unwrap_or_default()
     };
-    let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
-    let mut r = residuals(start, free, &logs, &estimation, criterion).ok_or_else(not_simulable)?;
-    let mut cost = r.norm_squared();
-    let mut j = jacobian(start, free, &logs, &estimation, criterion, &r).ok_or_else(not_simulable)?;
-    let np = logs.len();
-    let dof = (r.len() - np) as f64;
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < MAX_ITERATIONS && !converged {
-        iterations += 1;
-        let jtj = j.transpose() * &j;
-        let jtr = j.transpose() * &r;
-        let mut accepted = false;
-        while lambda < 1e10 {
-            let mut a = jtj.clone();
-            for i in 0..np {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-30);
-            }
-            let Some(step) = a.cholesky().map(|c| c.solve(&jtr)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let largest = step.rows(0, free.len()).amax();
-            let step = &step * (MAX_LOG_STEP / largest.max(MAX_LOG_STEP));
-            let trial: Vec<f64> = logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect();
-            match residuals(start, free, &trial, &estimation, criterion) {
-                Some(rt) if rt.norm_squared() < cost => {
-                    let gain = cost - rt.norm_squared();
-                    // Converged when the decrease is far below one unit of the criterion's
-                    // noise (σ²) or every step is far inside its own standard deviation.
-                    let s2 = cost / dof;
-                    let small = (0..np).all(|i| step[i].abs() <= 1e-3 * (s2 / jtj[(i, i)].max(1e-300)).sqrt());
-                    converged = gain <= 1e-6 * s2 || small;
-                    logs = trial;
-                    r = rt;
-                    cost = r.norm_squared();
-                    lambda = (lambda / 10.0).max(1e-9);
-                    accepted = true;
-                    break;
-                }
-                _ => lambda *= 10.0,
-            }
+    // The sampling instant, where free and the data has il: pinned on both channels first,
+    // then held (see the module doc).
+    let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
+    let (start, free_rest, logs, delay) = match pinned {
+        Some((i, weight)) => {
+            let joint = minimize(start, free, logs, &estimation, criterion, Some(weight))?;
+            let (_, cov) = noise_and_covariance(&joint, criterion, joint.r.len())?;
+            let held = with_logs(start, free, &joint.logs);
+            let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
+            let logs: Vec<f64> = joint.logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
+            (held, rest, logs, Some((i, joint.logs[i], cov[(i, i)], joint.iterations)))
         }
-        if !accepted {
-            converged = true; // no descent left: a minimum to working precision
-            break;
-        }
-        j = jacobian(start, free, &logs, &estimation, criterion, &r).ok_or_else(not_simulable)?;
-    }
-    let (s2, covariance) = match criterion {
-        Criterion::OutputError => (cost / dof, pem::covariance(j.transpose() * &j, cost / dof)?),
-        Criterion::Differenced => differenced_covariance(&j, cost / dof)?,
+        None => (*start, free.to_vec(), logs, None),
     };
+    let m = minimize(&start, &free_rest, logs, &estimation, criterion, None)?;
+    let (s2, rest_covariance) = noise_and_covariance(&m, criterion, m.r.len())?;
+    // The estimates and covariance in the order of `free` (then v0); the held delay with its
+    // variance from the joint fit, uncorrelated with the rest.
+    let (covariance, logs) = match delay {
+        Some((i, log_delay, var, _)) => {
+            let n = m.logs.len() + 1;
+            let index = |k: usize| match k.cmp(&i) {
+                std::cmp::Ordering::Less => Some(k),
+                std::cmp::Ordering::Equal => None,
+                std::cmp::Ordering::Greater => Some(k - 1),
+            };
+            let covariance = DMatrix::from_fn(n, n, |r, c| match (index(r), index(c)) {
+                (Some(r), Some(c)) => rest_covariance[(r, c)],
+                (None, None) => var,
+                _ => 0.0,
+            });
+            let mut logs = m.logs.clone();
+            logs.insert(i, log_delay);
+            (covariance, logs)
+        }
+        None => (rest_covariance, m.logs.clone()),
+    };
+    let (cost, iterations, converged, np) = (m.cost, m.iterations + delay.map_or(0, |d| d.3), m.converged, logs.len());
+    let start = &start;
     let seconds = clock.elapsed().as_secs_f64();
     let params = with_logs(start, free, &logs);
     let estimates = pem::log_estimates(free, &logs, &covariance);
@@ -302,6 +328,85 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
         covariance,
     };
     Ok(Candidate { structure: Structure::Simulated, fit, validation, seconds })
+}
+
+/// Where Levenberg–Marquardt ended: the unknowns `[ln θ | v0]`, the residuals and their
+/// Jacobian there, the criterion, and how it got there.
+struct Minimum {
+    logs: Vec<f64>,
+    r: DVector<f64>,
+    j: DMatrix<f64>,
+    cost: f64,
+    iterations: usize,
+    converged: bool,
+}
+
+/// Minimizes the criterion over `[ln θ | v0]` of `free` from `logs` (Levenberg–Marquardt on
+/// forward differences, steps capped at [`MAX_LOG_STEP`]).
+fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Result<Minimum, EstimatorError> {
+    let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
+    let mut r = residuals(start, free, &logs, estimation, criterion, il_weight).ok_or_else(not_simulable)?;
+    let mut cost = r.norm_squared();
+    let mut j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+    let np = logs.len();
+    let dof = (r.len() - np) as f64;
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < MAX_ITERATIONS && !converged {
+        iterations += 1;
+        let jtj = j.transpose() * &j;
+        let jtr = j.transpose() * &r;
+        let mut accepted = false;
+        while lambda < 1e10 {
+            let mut a = jtj.clone();
+            for i in 0..np {
+                a[(i, i)] += lambda * jtj[(i, i)].max(1e-30);
+            }
+            let Some(step) = a.cholesky().map(|c| c.solve(&jtr)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let largest = step.rows(0, free.len()).amax();
+            let step = &step * (MAX_LOG_STEP / largest.max(MAX_LOG_STEP));
+            let trial: Vec<f64> = logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect();
+            match residuals(start, free, &trial, estimation, criterion, il_weight) {
+                Some(rt) if rt.norm_squared() < cost => {
+                    let gain = cost - rt.norm_squared();
+                    // Converged when the decrease is far below one unit of the criterion's
+                    // noise (σ²) or every step is far inside its own standard deviation.
+                    let s2 = cost / dof;
+                    let small = (0..np).all(|i| step[i].abs() <= 1e-3 * (s2 / jtj[(i, i)].max(1e-300)).sqrt());
+                    converged = gain <= 1e-6 * s2 || small;
+                    logs = trial;
+                    r = rt;
+                    cost = r.norm_squared();
+                    lambda = (lambda / 10.0).max(1e-9);
+                    accepted = true;
+                    break;
+                }
+                _ => lambda *= 10.0,
+            }
+        }
+        if !accepted {
+            converged = true; // no descent left: a minimum to working precision
+            break;
+        }
+        j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+    }
+    Ok(Minimum { logs, r, j, cost, iterations, converged })
+}
+
+/// The sensor-noise variance of the first `n_vout` residuals (vout's) and the covariance of the
+/// unknowns at a minimum.
+fn noise_and_covariance(m: &Minimum, criterion: Criterion, n_vout: usize) -> Result<(f64, DMatrix<f64>), EstimatorError> {
+    let np = m.logs.len();
+    let dof = (m.r.len() - np) as f64;
+    let vout_ms = m.r.rows(0, n_vout).norm_squared() / (n_vout as f64 - np as f64).max(1.0);
+    match criterion {
+        Criterion::OutputError => Ok((vout_ms, pem::covariance(m.j.transpose() * &m.j, m.cost / dof)?)),
+        Criterion::Differenced => Ok((vout_ms / 2.0, differenced_covariance(&m.j, m.cost / dof)?.1)),
+    }
 }
 
 /// Sensor-noise variance and covariance of the unknowns for the differenced criterion, from the

@@ -140,8 +140,16 @@ pub struct EffectFit {
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub at_bound: bool,
     /// Significant, material, converged inside its range and (for a drift) outside the
-    /// tolerance: an effect to report.
+    /// tolerance: an effect to report. For `sample_delay`, also when the inductor current
+    /// shows it by itself ([`EffectFit::il_closed_percent`]).
     pub finding: bool,
+    /// For `sample_delay` on data with `il`: the share of the inductor current's material gap
+    /// above its own noise floor that the late reading closes [%] (`None` when the nominal
+    /// model's `il` does not miss materially). A late reading moves `il` by the inductor's
+    /// slope times the delay, which nothing else does; on `vout` it mimics a load ESR or an
+    /// ESL, so another effect's gap there can hide it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub il_closed_percent: Option<f64>,
     /// For an effect that is not significant and is linear at zero (`dead_time`, `load_esr`,
     /// `esl`, `cap_dc_bias`): the one-sided 95 % upper limit of its magnitude, how large it
     /// could be and still hide in this data (see `limits`).
@@ -157,6 +165,7 @@ impl EffectFit {
     /// `not significant` or `not identifiable`.
     pub fn standing(&self) -> &'static str {
         match (self.finding, self.significant, self.within_tolerance, self.material, self.identifiable) {
+            (true, ..) if !self.material && self.il_closed_percent.is_some() => "finding (in il)",
             (true, ..) => "finding",
             _ if self.at_bound && self.significant => "ended on a bound",
             (false, true, true, ..) => "within tolerance",
@@ -517,6 +526,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         at_bound,
         finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
+        il_closed_percent: None,
         residual,
     };
     (fit, t.cand)

@@ -13,7 +13,6 @@ mod consistency;
 mod effect;
 mod limits;
 mod locate;
-mod noise;
 mod options;
 mod quantization;
 mod select;
@@ -29,7 +28,7 @@ pub use options::{DiagnoseOptions, Nominal};
 use options::nominal_options;
 
 pub use locate::{Band, FloorSource, Group, Where};
-pub use noise::{noise_floor, noise_floor_estimate};
+pub use estimator::noise::{noise_floor, noise_floor_estimate};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -140,7 +139,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let base = base.best().clone();
     let residual = effect::residual(&base);
-    let floor = noise::noise_floor_estimate(data);
+    let floor = estimator::noise::noise_floor_estimate(data);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let baseline = effect::Baseline {
         nrmse: effect::held_out_nrmse(&base),
@@ -157,7 +156,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // Akaike criterion; of two nested effects (dcm inside diode_drop) the richer one wins only
     // by more than its parameter's worth. Then forward selection on top of it.
     // A drift within tolerance that explains best leaves nothing to name.
-    let first = select::best_material(effects.iter(), |e| e);
+    // A late reading the inductor current shows by itself comes first: it is how the data was
+    // taken, and every circuit effect is then tested on top of it.
+    let late_in_il = effects.iter().find(|e| e.finding && !e.material && e.il_closed_percent.is_some());
+    let first = late_in_il.or_else(|| select::best_material(effects.iter(), |e| e));
     let (mut selected, selection_ended) = match first {
         Some(first) if first.finding => select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),

@@ -107,6 +107,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         at_bound: false,
         finding: material,
         ruled_out_above: None,
+        il_closed_percent: None,
         residual,
     })
 }

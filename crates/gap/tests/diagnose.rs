@@ -243,34 +243,46 @@ fn effects_not_found_are_bounded_and_the_bound_is_a_detection_limit() {
     }
 }
 
-/// Data acquired 30 substeps of 100 (0.91 µs) after each period start, read off a converter
-/// stepped in hundredths of a period (not the simulator's own two-step reading), with 2 mV of
-/// noise: the late sample reads vout partway along the ripple, which the nominal model can only
-/// follow with a wrong Cl. `sample_delay` is found at the instant and Cl lands in its interval.
-#[test]
-fn late_sampling_is_sample_delay() {
+/// Data of the converter with circuit values `p`, both channels acquired `late` substeps of 100
+/// after each period start, read off a converter stepped in hundredths of a period (not the
+/// simulator's own two-step reading), with 2 mV of noise on vout and 5 mA on il.
+fn read_late(p: Params, late: usize) -> DataSet {
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
-    let cl = 2.2e-6;
     let substeps = 100;
-    let late = 30;
-    let mut d = data(plant(Params { cl, ..Params::default() }, Mode::Switched));
-    let mut c = plant(Params { cl, ..Params::default() }, Mode::Switched);
-    let period = 1.0 / Params::default().fs;
+    let mut d = data(plant(p, Mode::Switched));
+    let mut c = plant(p, Mode::Switched);
+    let period = 1.0 / p.fs;
     c.set(VarId::Duty, d.duty[0]).unwrap();
     c.set(VarId::Io, d.io[0]).unwrap();
     c.initialize();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let noise = Normal::new(0.0, 2e-3).unwrap();
-    for k in 0..d.len() {
-        c.set(VarId::Duty, d.duty[k]).unwrap();
+    let (noise_vout, noise_il) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 5e-3).unwrap());
+    let mut il = vec![0.0; d.len()];
+    for ((duty, vout), il) in d.duty.iter().zip(d.vout.iter_mut()).zip(il.iter_mut()) {
+        c.set(VarId::Duty, *duty).unwrap();
         for s in 0..substeps {
             if s == late {
-                d.vout[k] = c.outputs().vout + noise.sample(&mut rng);
+                *vout = c.outputs().vout + noise_vout.sample(&mut rng);
+                *il = c.state().il + noise_il.sample(&mut rng);
             }
             c.step(period / substeps as f64).unwrap();
         }
     }
+    d.il = Some(il);
+    d
+}
+
+/// Data acquired 30 substeps of 100 (0.91 µs) after each period start: the late sample reads
+/// vout partway along the ripple, which the nominal model can only follow with a wrong Cl.
+/// `sample_delay` is found at the instant and Cl lands in its interval.
+#[test]
+fn late_sampling_is_sample_delay() {
+    let cl = 2.2e-6;
+    let late = 30;
+    let d = read_late(Params { cl, ..Params::default() }, late);
+    let period = 1.0 / Params::default().fs;
+    let substeps = 100;
     let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
@@ -281,4 +293,21 @@ fn late_sampling_is_sample_delay() {
     assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
     // The nominal fit alone misses Cl by far more than its interval.
     assert!((dx.gap_before.cl / cl - 1.0).abs() > 0.05, "nominal Cl {:e}", dx.gap_before.cl);
+}
+
+/// A late acquisition (150 ns) and a 20 mΩ resistance in series with Cl = 2.2 µF move the
+/// sampled vout alike (a delay τ reads like an ESR of τ/Cl ≈ 68 mΩ), but only the delay moves
+/// il: with the instant pinned by il, both are selected, the ESR and Cl land in their intervals.
+#[test]
+fn a_late_reading_does_not_hide_a_load_esr() {
+    let (cl, esr) = (2.2e-6, 20e-3);
+    let d = read_late(Params { cl, load_esr: esr, ..Params::default() }, 5);
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert!(names.contains(&"sample_delay") && names.contains(&"load_esr"), "{names:?}: {}", dx.selection_ended);
+    let fit = dx.selected.iter().find(|e| e.name == "load_esr").unwrap();
+    let [lo, hi] = fit.ci95["load_esr"];
+    assert!(lo <= esr && esr <= hi, "load_esr {:e} outside [{lo:e}, {hi:e}]", fit.params["load_esr"]);
+    let (est, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
 }

@@ -1,15 +1,16 @@
-//! The noise floor: the white sensor noise on `vout`, estimated from the data alone, with no
-//! model (so that the gap a model leaves can be judged against something it did not produce).
+//! The white sensor noise on a measured channel (`vout`, `il`), estimated from the data alone,
+//! with no model: the floor a model's gap is judged against (so that it is judged against
+//! something the model did not produce), and the weight of each channel in a fit of both.
 //!
-//! Between input steps the converter's output is smooth at one sample per period (its poles
-//! are far below the sampling rate), so a fourth difference of `vout` there is almost pure
+//! Between input steps the converter's outputs are smooth at one sample per period (its poles
+//! are far below the sampling rate), so a fourth difference of a channel there is almost pure
 //! noise: `Δ⁴e` of white noise has variance `C(8,4)·σ² = 70·σ²`. Only differences whose
 //! window, and the [`SETTLE`] samples before it, see one constant input are used: a step in
 //! the duty kinks the output (the inductor current's slope jumps, and the ESR passes it on),
 //! and the fast charge-sharing mode between C and Cl dies out within a few periods; a duty
 //! applied up to two periods late (`delay`) moves the kink by as much.
 
-use estimator::data::DataSet;
+use crate::data::DataSet;
 
 /// Order of the difference.
 const ORDER: usize = 4;
@@ -33,7 +34,14 @@ pub fn noise_floor(data: &DataSet) -> Option<f64> {
 /// [`noise_floor`] and the number of fourth differences it was estimated from (its
 /// uncertainty).
 pub fn noise_floor_estimate(data: &DataSet) -> Option<(f64, usize)> {
-    let n = data.len();
+    white_noise(data, &data.vout)
+}
+
+/// Standard deviation of the white noise on `series` (a channel of `data`, sample for sample)
+/// and the number of fourth differences it was estimated from, or `None` when the inputs step
+/// too often to leave [`MIN_DIFFERENCES`] quiet windows.
+pub fn white_noise(data: &DataSet, series: &[f64]) -> Option<(f64, usize)> {
+    let n = data.len().min(series.len());
     let span = ORDER + SETTLE;
     let steady = |k: usize| data.duty[k] == data.duty[k - 1] && data.io[k] == data.io[k - 1] && data.vin[k] == data.vin[k - 1];
     // quiet[k]: the inputs did not change over samples k − span ..= k.
@@ -43,7 +51,7 @@ pub fn noise_floor_estimate(data: &DataSet) -> Option<(f64, usize)> {
     for k in 1..n {
         run = if steady(k) { run + 1 } else { 0 };
         if run >= span {
-            let y = &data.vout[k - ORDER..=k];
+            let y = &series[k - ORDER..=k];
             let d = y[4] - 4.0 * y[3] + 6.0 * y[2] - 4.0 * y[1] + y[0];
             sum += d * d;
             count += 1;
