@@ -3,7 +3,7 @@ use std::ffi::CString;
 use std::mem::ManuallyDrop;
 use std::ptr;
 
-use fmi2_sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Status, fmi2Type};
+use fmi2_sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Status, fmi2StatusKind, fmi2Type};
 
 use crate::callbacks::{Environment, LogMessage};
 use crate::fmu::{InstanceSlot, InstantiateOptions};
@@ -291,6 +291,26 @@ impl Instance {
         let no_rollback = boolean(self.states.is_empty());
         // SAFETY: a live component and plain values.
         self.call("fmi2DoStep", |f, c| unsafe { (f.do_step)(c, t, h, no_rollback) })
+    }
+
+    /// After `fmi2DoStep` returned `fmi2Discard`: whether the FMU asks to end the simulation
+    /// (`fmi2GetBooleanStatus(fmi2Terminated)`) and, if so, the time it reached
+    /// (`fmi2GetRealStatus(fmi2LastSuccessfulTime)`) \[s\].
+    pub fn terminated_at(&mut self) -> Result<Option<f64>, ImportError> {
+        let functions = &self.library.functions;
+        let (Some(get_bool), Some(get_real)) = (functions.get_boolean_status, functions.get_real_status) else {
+            return Err(ImportError::Unsupported { function: "fmi2GetBooleanStatus", reason: "the binary does not export it" });
+        };
+        let mut terminated: fmi2Boolean = 0;
+        // SAFETY: a live component; `terminated` is writable.
+        self.call("fmi2GetBooleanStatus", |_, c| unsafe { get_bool(c, fmi2StatusKind::fmi2Terminated, &mut terminated) })?;
+        if terminated == 0 {
+            return Ok(None);
+        }
+        let mut time = f64::NAN;
+        // SAFETY: a live component; `time` is writable.
+        self.call("fmi2GetRealStatus", |_, c| unsafe { get_real(c, fmi2StatusKind::fmi2LastSuccessfulTime, &mut time) })?;
+        Ok(Some(time))
     }
 
     fn state_function<T>(&self, function: &'static str, f: Option<T>) -> Result<T, ImportError> {

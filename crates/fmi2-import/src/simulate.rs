@@ -194,7 +194,8 @@ pub struct Recording {
 /// after every step, then terminates. Communication points are `start + k·step`; with inputs,
 /// an FMU that can handle a variable step also stops at each input row's time (so a row takes
 /// effect when it starts), and its last step ends at `stop`. An FMU that cannot stops at the
-/// last whole step (noted).
+/// last whole step (noted). A step the FMU discards because it terminated ends the run at
+/// the time it reached (recorded, noted), as in fmpy.
 pub fn simulate(
     fmu: &Fmu,
     exp: &Experiment,
@@ -246,8 +247,21 @@ pub fn simulate(
         if let Some(inputs) = inputs {
             inputs.apply(&mut inst, time)?;
         }
-        inst.do_step(time, next - time)?;
-        time = next;
+        match inst.do_step(time, next - time) {
+            Ok(()) => time = next,
+            // fmpy's rule: a discarded step whose FMU asks to terminate ends the run at the
+            // last time it reached, recorded.
+            Err(e @ ImportError::Call { status: crate::Status::Discard, .. }) => match inst.terminated_at() {
+                Ok(Some(t)) => {
+                    rec.notes.push(format!("the FMU ended the simulation at {t} s (fmi2DoStep returned fmi2Discard with fmi2Terminated)"));
+                    rec.time.push(t);
+                    rec.rows.push(inst.get_values(record)?);
+                    break;
+                }
+                _ => return Err(e),
+            },
+            Err(e) => return Err(e),
+        }
         rec.time.push(time);
         rec.rows.push(inst.get_values(record)?);
         if isclose(time, regular) {
