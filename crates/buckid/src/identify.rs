@@ -148,13 +148,15 @@ fn require_il(args: &IdentifyArgs, data: &DataSet) -> Result<()> {
     let list = missing.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(" and ");
     match &args.fmu {
         Some(fmu) => bail!(
-            "{why}, but the FMU {} has no {list} role (no variable of that name, no --map {}=NAME); drop {} to identify Cl from vout alone",
+            "{why}, but the FMU {} has no {list} role{} (no variable of that name, no --map {}=NAME); drop {} to identify Cl from vout alone",
             fmu.display(),
+            if missing.len() > 1 { "s" } else { "" },
             missing[0],
             if args.model == ModelChoice::Reduced { "--model reduced" } else { "--with-il" }
         ),
         None => bail!(
-            "{why}, but the data has no {list} column; drop {} to identify Cl from vout alone",
+            "{why}, but the data has no {list} column{}; drop {} to identify Cl from vout alone",
+            if missing.len() > 1 { "s" } else { "" },
             if args.model == ModelChoice::Reduced { "--model reduced" } else { "--with-il" }
         ),
     }
