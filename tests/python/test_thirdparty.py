@@ -289,3 +289,57 @@ def test_unknown_variable_is_an_error_listing_the_fmus_variables(buckid_bin, tar
     missing = [n for n in names if n not in proc.stderr]
     assert not missing, f"stderr does not list {missing}:\n{proc.stderr}"
     assert not (tmp_path / "out.json").exists()
+
+
+# ---- An FMU without an inductor current (issue 15) -------------------------------------------------
+# BuckPy mapped without `il`: exactly a third-party buck that exposes duty, load current and vout
+# only. The inductor current is optional in the data contract and must be for an FMU too.
+VOUT_ONLY = {"duty": "D", "io": "Iload", "vin": "Vin", "vout": "Vout"}
+
+
+def _identify_buckpy(buckid: Path, fmu: Path, out: Path, mapping: dict, *extra: str,
+                     model: str = "averaged") -> subprocess.CompletedProcess:
+    cmd = [str(buckid), "identify", "--fmu", str(fmu), "--model", model, "--seed", "7",
+           "--noise-vout", "2e-3", "--noise-il", "20e-3", "--json", str(out), *extra]
+    for role, name in mapping.items():
+        cmd += ["--map", f"{role}={name}"]
+    return subprocess.run(cmd, capture_output=True, text=True, check=False, timeout=900)
+
+
+def test_identify_from_vout_alone_when_the_fmu_has_no_il(buckid_bin, buckpy, tmp_path):
+    cl = _hidden_cl(TARGETS["pythonfmu"]["source"])
+    out, data = tmp_path / "out.json", tmp_path / "data.csv"
+    proc = _identify_buckpy(buckid_bin, buckpy, out, VOUT_ONLY, "--save-data", str(data))
+    assert proc.returncode == 0, f"stdout:\n{proc.stdout}\nstderr:\n{proc.stderr[-4000:]}"
+    result = json.loads(out.read_text())
+    lo, hi = result["cl"]["ci95"]
+    assert lo <= cl <= hi, f"true Cl {cl:g} outside [{lo:g}, {hi:g}]"
+    assert result["outputs"] == ["vout"], result["outputs"]
+    header = next(line for line in data.read_text().splitlines() if not line.startswith("#"))
+    assert header.split(",") == ["time", "duty", "vin", "io", "vout"], header
+
+    # With il measured (σ = 20 mA) and fitted, the data tells more: the interval is narrower.
+    with_il = tmp_path / "with_il.json"
+    proc = _identify_buckpy(buckid_bin, buckpy, with_il, {**VOUT_ONLY, "il": "IL"}, "--with-il")
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    both = json.loads(with_il.read_text())
+    assert both["outputs"] == ["vout", "il"], both["outputs"]
+    assert both["cl"]["ci95"][0] <= cl <= both["cl"]["ci95"][1], both["cl"]
+    assert both["cl"]["rel_std"] < result["cl"]["rel_std"], (both["cl"], result["cl"])
+
+    # The data file it saved (no il column) diagnoses from vout alone.
+    dx = tmp_path / "dx.json"
+    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--json", str(dx)],
+                          capture_output=True, text=True, check=False, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert json.loads(dx.read_text())["verdict"] == "none"
+
+
+@pytest.mark.parametrize("model, extra", [("averaged", ("--with-il",)), ("reduced", ())])
+def test_a_model_needing_il_names_the_missing_role(buckid_bin, buckpy, tmp_path, model, extra):
+    out = tmp_path / "out.json"
+    proc = _identify_buckpy(buckid_bin, buckpy, out, VOUT_ONLY, "--samples", "200", *extra, model=model)
+    assert proc.returncode != 0, proc.stdout
+    assert "no `il`" in proc.stderr and "--map il=NAME" in proc.stderr, proc.stderr
+    assert "NaN" not in proc.stderr and "panicked" not in proc.stderr, proc.stderr
+    assert not out.exists()

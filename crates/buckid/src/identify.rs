@@ -130,6 +130,38 @@ fn record_from_fmu(args: &IdentifyArgs, path: &std::path::Path) -> Result<(DataS
     Ok((data, start.elapsed().as_secs_f64(), validation as f64 / exp.samples as f64))
 }
 
+/// The inductor current is optional: a model that needs it (`--with-il`, the reduced model)
+/// is refused with the missing role or column named; every other model fits vout alone.
+fn require_il(args: &IdentifyArgs, data: &DataSet) -> Result<()> {
+    let average = args.sampling == SamplingChoice::Average;
+    let (needs, why): (&[&str], &str) = match (args.model, args.with_il) {
+        (ModelChoice::Reduced, _) => (&["il", "il_avg"], "the reduced model takes the measured inductor current as its input"),
+        (_, true) if average => (&["il_avg"], "--with-il fits the period-average inductor current"),
+        (_, true) => (&["il"], "--with-il fits the inductor current"),
+        _ => return Ok(()),
+    };
+    let has = |col: &str| if col == "il" { data.il.is_some() } else { data.il_avg.is_some() };
+    let missing: Vec<&str> = needs.iter().copied().filter(|c| !has(c)).collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let list = missing.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(" and ");
+    match &args.fmu {
+        Some(fmu) => bail!(
+            "{why}, but the FMU {} has no {list} role{} (no variable of that name, no --map {}=NAME); drop {} to identify Cl from vout alone",
+            fmu.display(),
+            if missing.len() > 1 { "s" } else { "" },
+            missing[0],
+            if args.model == ModelChoice::Reduced { "--model reduced" } else { "--with-il" }
+        ),
+        None => bail!(
+            "{why}, but the data has no {list} column{}; drop {} to identify Cl from vout alone",
+            if missing.len() > 1 { "s" } else { "" },
+            if args.model == ModelChoice::Reduced { "--model reduced" } else { "--with-il" }
+        ),
+    }
+}
+
 /// PRBS levels: `--duty`, or the open/closed-loop defaults.
 fn excitation_levels(args: &IdentifyArgs) -> [f64; 2] {
     match &args.duty {
@@ -282,6 +314,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         }
         (None, None) => bail!("give --fmu PATH or --data FILE"),
     };
+    require_il(args, &data)?;
     let (nominal, assumed) = nominal_from(&data)?;
     for a in &assumed {
         eprintln!("assuming {a}");

@@ -8,6 +8,7 @@ mod diagnose;
 mod identify;
 mod nominal_fmu;
 mod report;
+mod simulate;
 mod svg;
 mod convert;
 mod sweep;
@@ -35,6 +36,8 @@ enum Command {
     /// Convert a measurement into the data contract (an oscilloscope capture: one row per
     /// switching period).
     Convert(convert::ConvertArgs),
+    /// Run any FMI 2.0 Co-Simulation FMU with stepped inputs and record its variables to a CSV.
+    Simulate(simulate::SimulateArgs),
 }
 
 #[derive(Debug, Args)]
@@ -218,6 +221,7 @@ fn main() -> std::process::ExitCode {
         Command::Diagnose(args) if args.sweep.is_some() => sweep::run(&args),
         Command::Diagnose(args) => diagnose::run(&args),
         Command::Convert(args) => convert::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

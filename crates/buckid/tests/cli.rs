@@ -385,3 +385,31 @@ fn unexcited_data_is_refused_plainly() {
         assert!(!String::from_utf8_lossy(&o.stdout).contains("µF"), "{cmd} printed a Cl");
     }
 }
+
+#[test]
+fn simulate_drives_our_fmu_with_stepped_duty_to_its_dc_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("duty.csv");
+    std::fs::write(&input, "time,duty\n0,0.5\n1e-3,0.25\n").unwrap();
+    let out = dir.path().join("out.csv");
+    let fmu = buck_fmu().to_str().unwrap();
+    let args = ["simulate", "--fmu", fmu, "--input", input.to_str().unwrap(), "--set", "mode=1", "--stop", "2e-3", "--step", "1e-5"];
+    let o = buckid(&[&args[..], &["--output", "vout", "--output", "mode", "--out", out.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    assert_eq!(text.lines().next(), Some("time,vout,mode"));
+    assert_eq!(rows.len(), 201, "the start and 200 steps");
+    // Averaged DC point vout = d·U − RL·io (U = 12 V, RL = 0.1 Ω, io = 1 A): the FMU starts at
+    // that of duty 0.5 and has settled on 0.25 after 1 ms (30 time constants 2L/(RL + Rc) = 33 µs).
+    let at = |t: f64| rows.iter().find(|r| (r[0] - t).abs() < 1e-12).unwrap()[1];
+    assert!((at(0.0) - 5.9).abs() < 1e-9, "{}", at(0.0));
+    assert!((at(1e-3) - 5.9).abs() < 1e-6, "{}", at(1e-3));
+    assert!((at(2e-3) - 2.9).abs() < 1e-6, "{}", at(2e-3));
+    assert!(rows.iter().all(|r| r[2] == 1.0), "mode recorded as the Integer it was set to");
+
+    let o = buckid(&["simulate", "--fmu", fmu, "--set", "mode=1.5"]);
+    assert_clean_failure(&o, "mode");
+    let o = buckid(&["simulate", "--fmu", fmu, "--set", "duty=nan"]);
+    assert_clean_failure(&o, "not a finite number");
+}

@@ -150,8 +150,8 @@ impl Default for Experiment {
 pub struct PeriodSample {
     /// Output voltage at the period start [V].
     pub vout: f64,
-    /// Inductor current at the period start [A].
-    pub il: f64,
+    /// Inductor current at the period start [A], when the plant has one.
+    pub il: Option<f64>,
     /// Averages over the period, when the plant offers them: `(vout, il)`.
     pub average: Option<(f64, f64)>,
     /// Duty that drove the switch in the period just run, when the plant reports it.
@@ -198,6 +198,7 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
     let mut data = DataSet::default();
     let (mut il, mut vavg, mut iavg) = (Vec::new(), Vec::new(), Vec::new());
     let mut has_avg = true;
+    let mut has_il = true;
     // The averages of period k arrive after stepping it; the start sample of k before.
     let mut start = plant.sample()?;
     for (k, &d) in duties[exp.warmup..].iter().enumerate() {
@@ -214,7 +215,10 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
         data.vin.push(exp.vin);
         data.io.push(exp.io);
         data.vout.push(start.vout);
-        il.push(start.il);
+        match start.il {
+            Some(i) => il.push(i),
+            None => has_il = false,
+        }
         match next.average {
             Some((v, i)) => {
                 vavg.push(v);
@@ -232,14 +236,16 @@ pub fn run(plant: &mut dyn Plant, exp: &Experiment) -> Result<DataSet, Estimator
         }
     };
     add_noise(&mut data.vout, exp.noise_vout);
-    add_noise(&mut il, exp.noise_il);
+    if has_il {
+        add_noise(&mut il, exp.noise_il);
+        data.il = Some(il);
+    }
     if has_avg {
         add_noise(&mut vavg, exp.noise_vout);
         add_noise(&mut iavg, exp.noise_il);
         data.vout_avg = Some(vavg);
         data.il_avg = Some(iavg);
     }
-    data.il = Some(il);
     data.meta = plant.describe().into_iter().collect();
     data.meta.insert("fs".into(), format!("{fs}"));
     data.meta.insert("U".into(), format!("{}", exp.vin));
@@ -306,7 +312,7 @@ impl Plant for ModelPlant {
     fn sample(&mut self) -> Result<PeriodSample, EstimatorError> {
         let y = self.converter.outputs();
         let (vout, il) = if self.adc { (y.vout_adc, y.il_adc) } else { (y.vout, y.il) };
-        Ok(PeriodSample { vout, il, average: Some((y.vout_avg, y.il_avg)), duty_applied: Some(y.duty_applied) })
+        Ok(PeriodSample { vout, il: Some(il), average: Some((y.vout_avg, y.il_avg)), duty_applied: Some(y.duty_applied) })
     }
 
     fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {
@@ -380,5 +386,36 @@ mod tests {
         let sd = (diff.iter().map(|d| d * d).sum::<f64>() / diff.len() as f64).sqrt();
         assert!((sd - 2e-3).abs() < 0.3e-3, "noise σ {sd}");
         assert_eq!(a.il, clean.il, "no noise asked on il");
+    }
+
+    /// Measures vout only, like a third-party FMU without an inductor current.
+    struct VoutOnly(ModelPlant);
+
+    impl Plant for VoutOnly {
+        fn switching_frequency(&self) -> f64 {
+            self.0.switching_frequency()
+        }
+        fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError> {
+            self.0.start(duty, io, vin)
+        }
+        fn sample(&mut self) -> Result<PeriodSample, EstimatorError> {
+            Ok(PeriodSample { il: None, average: None, ..self.0.sample()? })
+        }
+        fn step_period(&mut self, duty: f64, io: f64) -> Result<(), EstimatorError> {
+            self.0.step_period(duty, io)
+        }
+        fn describe(&self) -> Vec<(String, String)> {
+            self.0.describe()
+        }
+    }
+
+    #[test]
+    fn a_plant_without_il_records_vout_and_no_il_column() {
+        let exp = Experiment { samples: 200, noise_il: 1e-3, ..Default::default() };
+        let plant = || ModelPlant::new(Params::default(), Mode::Switched);
+        let data = run(&mut VoutOnly(plant()), &exp).unwrap();
+        data.validate().unwrap();
+        assert!(data.il.is_none() && data.il_avg.is_none());
+        assert_eq!(data.vout, run(&mut plant(), &exp).unwrap().vout, "the same vout as the full plant");
     }
 }

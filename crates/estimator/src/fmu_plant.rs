@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use fmi2_import::{Fmu, ImportError, Instance, VarKind};
+use fmi2_import::{Fmu, ImportError, Instance, Value, VarKind, Variable};
 use fmi2_schema::VariableType;
 
 use crate::error::EstimatorError;
@@ -44,7 +44,8 @@ pub struct FmuPlant {
     fmu: Fmu,
     /// Value reference of each role the FMU has.
     roles: BTreeMap<&'static str, u32>,
-    settings: Vec<(u32, VarKind, f64, String)>,
+    /// Start values set before each run (`--set`, then the defaults).
+    settings: Vec<(Variable, Value)>,
     fs: f64,
     periods: u64,
     source: String,
@@ -102,8 +103,9 @@ impl FmuPlant {
             .iter()
             .filter(|(n, _)| fmu.variable(n).is_some() && !opts.set.iter().any(|(s, _)| s == n));
         for (name, value) in opts.set.iter().chain(defaults) {
-            let (vr, kind) = fmu.value_reference(name).map_err(plant_err)?;
-            settings.push((vr, kind, *value, name.clone()));
+            let var = fmu.resolve(name).map_err(plant_err)?;
+            let value = Value::from_number(var.kind, *value).map_err(|e| EstimatorError::Config(format!("--set {name}={value}: {e}")))?;
+            settings.push((var, value));
         }
         let fs = match opts.set.iter().find(|(n, _)| n == "fs") {
             Some((_, v)) => *v,
@@ -159,14 +161,8 @@ impl Plant for FmuPlant {
         // A fresh run every time: reset is cheap and makes repeated experiments independent.
         self.instance.reset().map_err(plant_err)?;
         self.instance.setup_experiment(0.0, None).map_err(plant_err)?;
-        for (vr, kind, value, name) in self.settings.clone() {
-            let result = match kind {
-                VarKind::Real => self.instance.set_real(&[vr], &[value]),
-                VarKind::Integer | VarKind::Enumeration => self.instance.set_integer(&[vr], &[value as i32]),
-                VarKind::Boolean => self.instance.set_boolean(&[vr], &[value != 0.0]),
-                _ => return Err(EstimatorError::Config(format!("--set {name}: string variables are not supported"))),
-            };
-            result.map_err(|e| EstimatorError::Plant(format!("--set {name}={value}: {e}")))?;
+        for (var, value) in &self.settings {
+            self.instance.set_value(var, value).map_err(|e| EstimatorError::Plant(format!("--set {}={value}: {e}", var.name)))?;
         }
         self.set("duty", duty)?;
         self.set("io", io)?;
@@ -179,7 +175,7 @@ impl Plant for FmuPlant {
 
     fn sample(&mut self) -> Result<PeriodSample, EstimatorError> {
         let vout = self.get("vout")?.unwrap_or(f64::NAN);
-        let il = self.get("il")?.unwrap_or(f64::NAN);
+        let il = self.get("il")?;
         let average = match (self.get("vout_avg")?, self.get("il_avg")?) {
             (Some(v), Some(i)) => Some((v, i)),
             _ => None,
@@ -200,7 +196,10 @@ impl Plant for FmuPlant {
     fn describe(&self) -> Vec<(String, String)> {
         let mut meta = vec![("source".to_string(), self.source.clone())];
         for name in DESCRIBED {
-            let set = self.settings.iter().find(|s| s.3 == name).map(|s| s.2);
+            let set = self.settings.iter().find_map(|(var, value)| match value {
+                Value::Real(x) if var.name == name => Some(*x),
+                _ => None,
+            });
             // No load resistor (0) is the contract's default: not written.
             if let Some(v) = set.or_else(|| real_start(&self.fmu, name)).filter(|v| name != "rload" || *v != 0.0) {
                 meta.push((name.to_string(), format!("{v}")));

@@ -220,9 +220,14 @@ impl Fmu {
     /// # Ok::<(), fmi2_import::ImportError>(())
     /// ```
     pub fn value_reference(&self, name: &str) -> Result<(u32, VarKind), ImportError> {
-        if let Some(v) = self.variable(name) {
-            return Ok((v.value_reference, VarKind::from(&v.ty)));
+        match self.variable(name) {
+            Some(v) => Ok((v.value_reference, VarKind::from(&v.ty))),
+            None => Err(self.unknown_variable(name)),
         }
+    }
+
+    /// The error for a name the FMU lacks, listing (the first 200 of) its variables.
+    pub(crate) fn unknown_variable(&self, name: &str) -> ImportError {
         let vars = self.variables();
         let mut available: Vec<&str> = vars.iter().take(LISTED_VARIABLES).map(|v| v.name.as_str()).collect();
         let more = vars.len().saturating_sub(LISTED_VARIABLES);
@@ -231,7 +236,7 @@ impl Fmu {
             available.push(&more);
         }
         let available = if available.is_empty() { "(none)".to_owned() } else { available.join(", ") };
-        Err(ImportError::UnknownVariable { name: name.to_owned(), available })
+        ImportError::UnknownVariable { name: name.to_owned(), available }
     }
 
     /// Where the binary for this platform must be, e.g. `binaries/linux64/<id>.so`.

@@ -3,7 +3,7 @@ use std::ffi::CString;
 use std::mem::ManuallyDrop;
 use std::ptr;
 
-use fmi2_sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Status, fmi2Type};
+use fmi2_sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Status, fmi2StatusKind, fmi2Type};
 
 use crate::callbacks::{Environment, LogMessage};
 use crate::fmu::{InstanceSlot, InstantiateOptions};
@@ -245,6 +245,44 @@ impl Instance {
         Ok(())
     }
 
+    /// `fmi2GetString`: fills `values[i]` with a copy of `refs[i]` (a null string reads as "").
+    pub fn get_string(&mut self, refs: &[u32], values: &mut [String]) -> Result<(), ImportError> {
+        const F: &str = "fmi2GetString";
+        Self::same_length(F, refs.len(), values.len())?;
+        let Some(get) = self.library.functions.get_string else {
+            return Err(ImportError::Unsupported { function: F, reason: "the binary does not export it" });
+        };
+        let mut raw: Vec<fmi2_sys::fmi2String> = vec![ptr::null(); refs.len()];
+        // SAFETY: both buffers hold `refs.len()` elements; `raw` is writable.
+        self.call(F, |_, c| unsafe { get(c, refs.as_ptr(), refs.len(), raw.as_mut_ptr()) })?;
+        for (v, p) in values.iter_mut().zip(raw) {
+            *v = if p.is_null() {
+                String::new()
+            } else {
+                // SAFETY: FMI 2.0 returns NUL-terminated strings that stay valid until the next
+                // call on this instance; they are copied here, before any other call.
+                unsafe { std::ffi::CStr::from_ptr(p) }.to_string_lossy().into_owned()
+            };
+        }
+        Ok(())
+    }
+
+    /// `fmi2SetString`.
+    pub fn set_string(&mut self, refs: &[u32], values: &[&str]) -> Result<(), ImportError> {
+        const F: &str = "fmi2SetString";
+        Self::same_length(F, refs.len(), values.len())?;
+        let Some(set) = self.library.functions.set_string else {
+            return Err(ImportError::Unsupported { function: F, reason: "the binary does not export it" });
+        };
+        let owned = values
+            .iter()
+            .map(|v| CString::new(*v).map_err(|_| ImportError::NulByte { what: "string value", value: (*v).to_owned() }))
+            .collect::<Result<Vec<_>, _>>()?;
+        let ptrs: Vec<fmi2_sys::fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
+        // SAFETY: `ptrs` holds `refs.len()` NUL-terminated strings that outlive the call.
+        self.call(F, |_, c| unsafe { set(c, refs.as_ptr(), refs.len(), ptrs.as_ptr()) })
+    }
+
     /// `fmi2DoStep` from communication point `t` \[s\] over `h` \[s\].
     ///
     /// `noSetFMUStatePriorToCurrentPoint` is true unless a snapshot from
@@ -253,6 +291,26 @@ impl Instance {
         let no_rollback = boolean(self.states.is_empty());
         // SAFETY: a live component and plain values.
         self.call("fmi2DoStep", |f, c| unsafe { (f.do_step)(c, t, h, no_rollback) })
+    }
+
+    /// After `fmi2DoStep` returned `fmi2Discard`: whether the FMU asks to end the simulation
+    /// (`fmi2GetBooleanStatus(fmi2Terminated)`) and, if so, the time it reached
+    /// (`fmi2GetRealStatus(fmi2LastSuccessfulTime)`) \[s\].
+    pub fn terminated_at(&mut self) -> Result<Option<f64>, ImportError> {
+        let functions = &self.library.functions;
+        let (Some(get_bool), Some(get_real)) = (functions.get_boolean_status, functions.get_real_status) else {
+            return Err(ImportError::Unsupported { function: "fmi2GetBooleanStatus", reason: "the binary does not export it" });
+        };
+        let mut terminated: fmi2Boolean = 0;
+        // SAFETY: a live component; `terminated` is writable.
+        self.call("fmi2GetBooleanStatus", |_, c| unsafe { get_bool(c, fmi2StatusKind::fmi2Terminated, &mut terminated) })?;
+        if terminated == 0 {
+            return Ok(None);
+        }
+        let mut time = f64::NAN;
+        // SAFETY: a live component; `time` is writable.
+        self.call("fmi2GetRealStatus", |_, c| unsafe { get_real(c, fmi2StatusKind::fmi2LastSuccessfulTime, &mut time) })?;
+        Ok(Some(time))
     }
 
     fn state_function<T>(&self, function: &'static str, f: Option<T>) -> Result<T, ImportError> {

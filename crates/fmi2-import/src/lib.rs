@@ -36,6 +36,8 @@ mod instance;
 #[allow(unsafe_code)]
 mod library;
 mod python;
+pub mod simulate;
+mod value;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -46,6 +48,7 @@ pub use fmi2_schema as schema;
 pub use fmu::{Fmu, InstantiateOptions, VarKind};
 pub use instance::{FmuState, Instance};
 pub use python::LIBPYTHON_ENV;
+pub use value::{Value, Variable};
 
 /// Everything that can go wrong while opening, loading or driving an FMU.
 #[derive(Debug, thiserror::Error)]
@@ -212,6 +215,25 @@ pub enum ImportError {
         /// The FMI function.
         function: &'static str,
     },
+    /// A value does not fit its variable (type, range, NaN).
+    #[error("variable `{name}`: {reason}")]
+    BadValue {
+        /// The variable.
+        name: String,
+        /// What is wrong with the value.
+        reason: String,
+    },
+    /// Setting a variable failed.
+    #[error("setting `{name}`: {source}")]
+    Setting {
+        /// The variable.
+        name: String,
+        /// The call's error.
+        source: Box<ImportError>,
+    },
+    /// The simulation's time settings or input table cannot be run.
+    #[error("{0}")]
+    Simulation(String),
     /// No variable has this name.
     #[error("the FMU has no variable {name:?}; its variables are: {available}")]
     UnknownVariable {

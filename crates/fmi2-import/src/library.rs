@@ -72,6 +72,11 @@ functions! {
         get_fmu_state: fmi2GetFMUstateTYPE = "fmi2GetFMUstate",
         set_fmu_state: fmi2SetFMUstateTYPE = "fmi2SetFMUstate",
         free_fmu_state: fmi2FreeFMUstateTYPE = "fmi2FreeFMUstate",
+        // Required by the standard, but the importer needs them only for String variables.
+        get_string: fmi2GetStringTYPE = "fmi2GetString",
+        set_string: fmi2SetStringTYPE = "fmi2SetString",
+        get_real_status: fmi2GetRealStatusTYPE = "fmi2GetRealStatus",
+        get_boolean_status: fmi2GetBooleanStatusTYPE = "fmi2GetBooleanStatus",
     }
 }
 

@@ -286,3 +286,44 @@ fn wrong_guid_fails_instantiation_with_the_fmu_log() -> Result<()> {
     assert!(err.to_string().contains("fmi2Instantiate(\"stale\") returned null; the FMU logged:"), "{err}");
     Ok(())
 }
+
+/// A Modelica Association Reference FMU from `tests/fixtures/reference-fmus/`.
+fn reference_fmu(name: &str) -> PathBuf {
+    root().join("tests/fixtures/reference-fmus").join(format!("{name}.fmu"))
+}
+
+#[test]
+fn simulate_runs_dahlquist_as_its_fixed_euler_step() -> Result<()> {
+    use fmi2_import::Value;
+    use fmi2_import::simulate::{Experiment, simulate};
+    let fmu = Fmu::open(reference_fmu("Dahlquist"))?;
+    let exp = Experiment::for_fmu(&fmu, None, None, None)?;
+    assert_eq!(exp, Experiment { start: 0.0, stop: 10.0, step: 0.1 }, "its DefaultExperiment");
+    let k = fmu.resolve("k")?;
+    let rec = simulate(&fmu, &exp, &[(k, Value::Real(2.0))], None, &fmu.outputs())?;
+    assert_eq!(rec.variables.iter().map(|v| v.name.as_str()).collect::<Vec<_>>(), ["x"]);
+    assert_eq!(rec.time.len(), 101, "the start and 100 steps");
+    // dx/dt = −k·x with forward Euler at its FIXED_SOLVER_STEP 0.1 (config.h): x_n = (1 − 0.1·k)^n.
+    for (n, (t, row)) in rec.time.iter().zip(&rec.rows).enumerate() {
+        let want = 0.8f64.powi(n as i32);
+        let Value::Real(x) = row[0] else { panic!("x is Real") };
+        assert!((t - 0.1 * n as f64).abs() < 1e-12, "t = {t}");
+        assert!((x - want).abs() <= 1e-12 * want, "x({t}) = {x}, expected {want}");
+    }
+    Ok(())
+}
+
+#[test]
+fn simulate_ends_where_stair_terminates() -> Result<()> {
+    use fmi2_import::Value;
+    use fmi2_import::simulate::{Experiment, simulate};
+    let fmu = Fmu::open(reference_fmu("Stair"))?;
+    let exp = Experiment::for_fmu(&fmu, None, None, Some(0.5))?;
+    let rec = simulate(&fmu, &exp, &[], None, &fmu.outputs())?;
+    // The counter starts at 1 and counts each second; at 10 (t = 9 s) the FMU terminates.
+    assert_eq!(rec.time.last().copied(), Some(9.0));
+    assert_eq!(rec.rows.last(), Some(&vec![Value::Integer(10)]));
+    assert_eq!(rec.rows[3], vec![Value::Integer(2)], "t = 1.5 s");
+    assert!(rec.notes.iter().any(|n| n.contains("ended the simulation at 9 s")), "{:?}", rec.notes);
+    Ok(())
+}
