@@ -330,7 +330,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             e.levels[1],
             e.signal,
             e.recorded_duty,
-            if e.load_noise > 0.0 { format!(", load disturbance σ = {} A", e.load_noise) } else { String::new() }
+            if e.load_noise > 0.0 { format!(", load disturbance σ = {}", si(e.load_noise, "A", 3)) } else { String::new() }
         )
     });
     if let Some(text) = &excitation_text {
@@ -352,7 +352,8 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             .map(|a| format!("assumed: {a}"))
             .chain(out.estimated.iter().map(|(name, e)| format!("estimated with Cl: {name} = {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)))))
             .collect();
-        let file = crate::report::identify::write(dir, &id, &nominal, &source, excitation_text.as_deref(), &circuit)?;
+        let ctx = crate::report::identify::Context { source: &source, excitation: excitation_text.as_deref(), circuit: &circuit, noise_floor: gap::noise_floor(&data) };
+        let file = crate::report::identify::write(dir, &id, &nominal, &ctx)?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())

@@ -8,7 +8,6 @@ mod diagnose;
 mod identify;
 mod nominal_fmu;
 mod report;
-mod svg;
 mod convert;
 mod sweep;
 mod units;
