@@ -47,7 +47,7 @@ impl Page {
         }
         let html = format!(
             r#"<!doctype html><html><head><meta charset="utf-8"><title>{}</title>
-<style>body{{font-family:sans-serif;max-width:760px;margin:2em auto;line-height:1.4}}figure{{margin:1.2em 0}}svg{{max-width:100%;height:auto}}
+<style>body{{font-family:sans-serif;max-width:880px;margin:2em auto;line-height:1.4}}figure{{margin:1.2em 0}}svg{{max-width:100%;height:auto}}
 table{{border-collapse:collapse;font-size:0.9em}}td,th{{padding:3px 8px;text-align:right;vertical-align:top;border-bottom:1px solid #ddd}}th{{background:#f2f2f2}}td:first-child,th:first-child{{text-align:left}}</style></head><body>
 {}</body></html>
 "#,

@@ -108,7 +108,7 @@ fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Result<Page> {
     pts.sort_by(|a, b| a.duty.total_cmp(&b.duty));
     let series = |f: fn(&dc_sweep::diagnose::PointGap) -> f64| pts.iter().map(|p| (p.duty, f(p))).collect::<Vec<_>>();
     let line = |name: &str, color, mark, f: fn(&dc_sweep::diagnose::PointGap) -> f64| Line { name: name.to_string(), color, mark, points: series(f) };
-    let chart = |title, y: Axis<'static>, lines| Chart { title, x: Axis::linear("duty", ""), panels: vec![Panel { caption: String::new(), y, bands: Vec::new(), lines, height: 220, shared: false }] };
+    let chart = |title, y: Axis<'static>, lines| Chart { title, x: Axis::linear("duty", ""), panels: vec![Panel { caption: String::new(), y, bands: Vec::new(), lines, height: 220 }] };
     let plot = chart(
         "Mean output voltage against duty",
         Axis::linear("vout", "V"),

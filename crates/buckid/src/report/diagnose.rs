@@ -117,16 +117,14 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         bands: Vec::new(),
         lines: std::iter::once(line("measured", GREY, &t.measured[..shown])).chain(models.iter().map(|(name, y, color)| line(name, *color, y))).collect(),
         height: 130,
-        shared: false,
     }];
     for (name, y, color) in &models {
         panels.push(Panel {
-            caption: format!("residual, {name}: {} RMS", si(rms(&residual(y)), "V", 3)),
+            caption: format!("measured − {name}: {} RMS, {}× the floor", si(rms(&residual(y)), "V", 3), si(rms(&residual(y)) / floor, "", 3)),
             y: Axis::linear("residual", "V"),
             bands: vec![band()],
-            lines: vec![line(&format!("measured − {name}"), *color, &residual(y))],
+            lines: vec![line("", *color, &residual(y))],
             height: 110,
-            shared: true,
         });
     }
     let signature = Chart { title: "Held-out residual against the noise floor: the effect's signature", x: Axis::linear("time since hold-out start", "s"), panels };

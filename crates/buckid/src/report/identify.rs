@@ -59,7 +59,6 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
                 bands: Vec::new(),
                 lines: vec![line("measured", GREY, Mark::Solid, tr.measured[..shown].to_vec()), line("simulated", BLUE, Mark::Solid, tr.simulated[..shown].to_vec())],
                 height: 150,
-                shared: false,
             },
             Panel {
                 caption: "residual".into(),
@@ -67,7 +66,6 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
                 bands: vec![Band::symmetric(floor_name, FLOOR, floor, span)],
                 lines: residuals,
                 height: 150,
-                shared: false,
             },
         ],
     };
@@ -83,7 +81,6 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
                 bands: vec![Band::symmetric("99 % band of white noise".into(), FLOOR, r.band99, span)],
                 lines: vec![Line { name: caption.to_string(), color, mark: Mark::Stems, points }],
                 height: 170,
-                shared: false,
             }],
         }
     };
@@ -109,7 +106,6 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
                 Line { name: format!("fitted Cl = {}", with_ci(cl_value, Some(ci), "F")), color: RED, mark: Mark::Solid, points: bode_of(cl_value) },
             ],
             height: 230,
-            shared: false,
         }],
     };
 

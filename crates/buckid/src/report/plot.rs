@@ -84,7 +84,7 @@ pub enum Mark {
 
 /// A named series of points `(x, y)`.
 pub struct Line {
-    /// Legend text.
+    /// Legend text (empty: not in the legend, e.g. when the panel's caption names it).
     pub name: String,
     /// Colour.
     pub color: RGBColor,
@@ -125,8 +125,6 @@ pub struct Panel<'a> {
     pub lines: Vec<Line>,
     /// Height of the plot area [px].
     pub height: u32,
-    /// On the y range common to every shared panel of the chart (to compare residuals).
-    pub shared: bool,
 }
 
 /// A figure of stacked panels sharing one x axis, ticked and named under the bottom one.
@@ -173,7 +171,7 @@ impl Scale {
         if axis.log {
             let ticks: Vec<f64> = (lo.ceil() as i64..=hi.floor() as i64).map(|k| k as f64).collect();
             let minor = (lo.floor() as i64..=hi.ceil() as i64).flat_map(|d| (2..10).map(move |m| d as f64 + (m as f64).log10())).filter(|v| (lo..=hi).contains(v)).collect();
-            return Self { lo, hi, ticks, minor, log: true, factor: 1.0, unit: axis.unit.to_string(), desc: name(axis.label, axis.unit) };
+            return Self { lo, hi, ticks, minor, log: true, factor: 1.0, unit: axis.unit.to_string(), desc: axis.label.to_string() };
         }
         let (factor, p) = prefix(lo.abs().max(hi.abs()), axis.unit);
         let unit = format!("{p}{}", axis.unit);
@@ -305,12 +303,11 @@ impl Chart<'_> {
             let stems = p.lines.iter().any(|l| l.mark == Mark::Stems).then_some(0.0);
             extent(p.lines.iter().flat_map(|l| l.points.iter().map(|q| q.1)).chain(p.bands.iter().flat_map(|b| b.lower.iter().chain(&b.upper).map(|q| q.1))).chain(stems))
         };
-        let shared_y = self.panels.iter().filter(|p| p.shared).map(y_extent).fold((f64::INFINITY, f64::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
         let mut legend = Legend { entries: Vec::new() };
         for p in &self.panels {
             let entries = p.bands.iter().map(|b| (b.name.clone(), b.color, Swatch::Area)).chain(p.lines.iter().map(|l| (l.name.clone(), l.color, Swatch::Line(l.mark))));
             for e in entries {
-                if !legend.entries.iter().any(|f| f.0 == e.0) {
+                if !e.0.is_empty() && !legend.entries.iter().any(|f| f.0 == e.0) {
                     legend.entries.push(e);
                 }
             }
@@ -326,7 +323,7 @@ impl Chart<'_> {
                 let caption = if p.caption.is_empty() { 8 } else { 22 };
                 let (here, below) = rest.split_vertically(p.height + caption + if bottom { X_AREA } else { 0 });
                 rest = below;
-                let (lo, hi) = if p.shared { shared_y } else { y_extent(p) };
+                let (lo, hi) = y_extent(p);
                 let y = Scale::new(&p.y, lo, hi, 0.06);
                 let mut chart = ChartBuilder::on(&here)
                     .margin_top(caption)
@@ -500,7 +497,7 @@ mod tests {
         assert_eq!(x.desc, "time [ms]");
         assert_eq!(x.text(2e-3), "2");
         let f = Scale::new(&Axis { label: "frequency", unit: "Hz", log: true }, 2.0, 5.2, 0.0);
-        assert_eq!(f.ticks, vec![3.0, 4.0, 5.0]);
+        assert_eq!(f.ticks, vec![2.0, 3.0, 4.0, 5.0]);
         assert_eq!(f.text(3.0), "1 kHz");
         assert_eq!(Scale::new(&Axis::linear("correlation", ""), -0.1, 0.3, 0.0).desc, "correlation");
     }
@@ -516,13 +513,12 @@ mod tests {
                 bands: vec![Band::symmetric("±noise floor".into(), FLOOR, 2e-3, (0.0, 1e-3))],
                 lines: vec![Line { name: "nominal".into(), color: BLUE, mark: Mark::Solid, points: vec![(0.0, 1e-3), (5e-4, f64::NAN), (1e-3, -3e-3)] }],
                 height: 120,
-                shared: false,
             }],
         };
         let svg = chart.render().unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains("a &lt; b") && svg.contains("residual [mV]") && svg.contains("time [ms]") && !svg.contains("NaN"));
-        let (band, line, legend) = (svg.find("<polygon").unwrap(), svg.find("<polyline").unwrap(), svg.find("±noise floor").unwrap());
+        let (band, line, legend) = (svg.find("<polygon").unwrap(), svg.find(r##"stroke="#1F77B4""##).unwrap(), svg.find("±noise floor").unwrap());
         assert!(band < line && line < legend, "band under the line, legend after the plot");
     }
 
