@@ -298,7 +298,8 @@ impl Chart<'_> {
         let x_axis = self.x;
         let xs = lines().flat_map(|l| l.points.iter().map(|p| p.0)).chain(self.panels.iter().flat_map(|p| &p.bands).flat_map(|b| b.lower.iter().chain(&b.upper).map(|p| p.0)));
         let (x0, x1) = extent(xs.filter(|x| !x_axis.log || *x > 0.0).map(|x| if x_axis.log { x.log10() } else { x }));
-        let x = Scale::new(&x_axis, x0, x1, 0.0);
+        // Dots at the ends are drawn whole.
+        let x = Scale::new(&x_axis, x0, x1, if lines().any(|l| l.mark == Mark::Dots) { 0.03 } else { 0.0 });
         let y_extent = |p: &Panel<'_>| {
             let stems = p.lines.iter().any(|l| l.mark == Mark::Stems).then_some(0.0);
             extent(p.lines.iter().flat_map(|l| l.points.iter().map(|q| q.1)).chain(p.bands.iter().flat_map(|b| b.lower.iter().chain(&b.upper).map(|q| q.1))).chain(stems))
