@@ -49,7 +49,7 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
             }
             *field(&mut p) = v;
             if let Some(m) = meta.filter(|m| (m - v).abs() > 1e-9 * v.abs()) {
-                assumed.push(format!("{key} = {v:e} from the FMU (the data's metadata says {m:e})"));
+                assumed.push(format!("{key} = {} from the FMU (the data's metadata says {})", si(v, unit_of(key), 4), si(m, unit_of(key), 4)));
             }
             continue;
         }
@@ -58,9 +58,9 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
             Some(v) => bail!("metadata `{key} = {v}` is not a valid circuit value"),
             None if key == "fs" => {
                 p.fs = 1.0 / data.sample_period();
-                assumed.push(format!("fs = {:.6e} Hz from the sample spacing", p.fs));
+                assumed.push(format!("fs = {} from the sample spacing", si(p.fs, "Hz", 6)));
             }
-            None => assumed.push(format!("{key} = {:e} (thesis value; give `# {key} = …` to override)", *field(&mut p))),
+            None => assumed.push(format!("{key} = {} (thesis value; give `# {key} = …` to override)", si(*field(&mut p), unit_of(key), 4))),
         }
     }
     // The load resistor: none (0) unless the FMU or the data names one; its absence is the
@@ -70,7 +70,7 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
         Some(&v) if !(v.is_finite() && v >= 0.0) => bail!("the FMU's start value `rload = {v}` is not a valid load resistance"),
         Some(&v) => {
             if (meta - v).abs() > 1e-9 * v.abs() {
-                assumed.push(format!("rload = {v:e} from the FMU (the data's metadata says {meta:e})"));
+                assumed.push(format!("rload = {} from the FMU (the data's metadata says {})", si(v, "Ω", 4), si(meta, "Ω", 4)));
             }
             v
         }
@@ -363,7 +363,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             e.levels[1],
             e.signal,
             e.recorded_duty,
-            if e.load_noise > 0.0 { format!(", load disturbance σ = {} A", e.load_noise) } else { String::new() }
+            if e.load_noise > 0.0 { format!(", load disturbance σ = {}", si(e.load_noise, "A", 3)) } else { String::new() }
         )
     });
     if let Some(text) = &excitation_text {
@@ -385,7 +385,8 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             .map(|a| format!("assumed: {a}"))
             .chain(out.estimated.iter().map(|(name, e)| format!("estimated with Cl: {name} = {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)))))
             .collect();
-        let file = crate::report::identify::write(dir, &id, &nominal, &source, excitation_text.as_deref(), &circuit)?;
+        let ctx = crate::report::identify::Context { source: &source, excitation: excitation_text.as_deref(), circuit: &circuit, noise_floor: gap::noise_floor(&data) };
+        let file = crate::report::identify::write(dir, &id, &nominal, &ctx)?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())

@@ -9,7 +9,6 @@ mod identify;
 mod nominal_fmu;
 mod report;
 mod simulate;
-mod svg;
 mod convert;
 mod sweep;
 mod units;

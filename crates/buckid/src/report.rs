@@ -1,13 +1,14 @@
 //! The HTML reports (`--report DIR`): one `index.html` with the figures inline, and each
-//! figure also as its own `.svg` file next to it (for slides and papers).
+//! figure also as its own `.svg` file next to it (for slides and papers). Every number on a
+//! page goes through [`crate::units`]: SI prefixes, units, digits that match the interval.
 pub mod diagnose;
 pub mod identify;
+pub mod plot;
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-use crate::svg::esc;
 
 /// A report page being assembled: HTML fragments and figures in order.
 pub struct Page {
@@ -28,10 +29,10 @@ impl Page {
         self.body.push('\n');
     }
 
-    /// Appends a figure, inline, and keeps it to be written as `<file>.svg`.
+    /// Appends a figure, inline as `<figure id="<file>">`, and keeps it to be written as
+    /// `<file>.svg`.
     pub fn figure(&mut self, file: &str, svg: String) {
-        self.body.push_str(&svg);
-        self.body.push('\n');
+        self.body.push_str(&format!("<figure id=\"{file}\">{svg}</figure>\n"));
         self.figures.push((format!("{file}.svg"), svg));
     }
 
@@ -46,7 +47,8 @@ impl Page {
         }
         let html = format!(
             r#"<!doctype html><html><head><meta charset="utf-8"><title>{}</title>
-<style>body{{font-family:sans-serif;max-width:760px;margin:2em auto}}td,th{{padding:2px 8px;text-align:right}}td:first-child,th:first-child{{text-align:left}}</style></head><body>
+<style>body{{font-family:sans-serif;max-width:880px;margin:2em auto;line-height:1.4}}figure{{margin:1.2em 0}}svg{{max-width:100%;height:auto}}
+table{{border-collapse:collapse;font-size:0.9em}}td,th{{padding:3px 8px;text-align:right;vertical-align:top;border-bottom:1px solid #ddd}}th{{background:#f2f2f2}}td:first-child,th:first-child{{text-align:left}}</style></head><body>
 {}</body></html>
 "#,
             esc(&self.title),
@@ -63,4 +65,9 @@ pub fn table(header: &[&str], rows: &[Vec<String>]) -> String {
     let th: String = header.iter().map(|h| format!("<th>{}</th>", esc(h))).collect();
     let body: String = rows.iter().map(|r| format!("<tr>{}</tr>", r.iter().map(|c| format!("<td>{c}</td>")).collect::<String>())).collect();
     format!("<table><tr>{th}</tr>{body}</table>")
+}
+
+/// Escapes text for HTML and XML.
+pub fn esc(t: &str) -> String {
+    t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }

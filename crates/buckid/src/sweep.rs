@@ -4,8 +4,9 @@ use anyhow::{Context, Result};
 use dc_sweep::{Circuit, Diagnosis, Options, Sweep, diagnose};
 
 use crate::DiagnoseArgs;
-use crate::report::{Page, table};
-use crate::svg::{Plot, Series, esc};
+use crate::report::plot::{Axis, BLACK, Chart, GREY, Line, Mark, Panel, RED};
+use crate::report::{Page, esc, table};
+use crate::units::si;
 
 /// Fallback circuit of a sweep: the thesis L and fs, but RL = 0 (an unknown series resistance
 /// should show up as an effect, not hide in an assumed nominal).
@@ -13,14 +14,16 @@ fn fallback() -> Circuit {
     Circuit { rl: 0.0, ..Circuit::default() }
 }
 
+/// A DC effect's parameter with its SI prefix and unit.
 fn fmt_param(name: &str, v: f64) -> String {
-    match name {
-        "vf" => format!("{v:.4} V"),
-        "r_series" => format!("{:.1} mΩ", v * 1e3),
-        "td" => format!("{:.1} ns", v * 1e9),
-        "l" => format!("{:.3} µH", v * 1e6),
-        _ => format!("{v:e}"),
-    }
+    let unit = match name {
+        "vf" => "V",
+        "r_series" => "Ω",
+        "td" => "s",
+        "l" => "H",
+        _ => "",
+    };
+    si(v, unit, 4)
 }
 
 fn fmt_ci(name: &str, ci: [f64; 2]) -> String {
@@ -52,7 +55,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         eprintln!("wrote {}", out.display());
     }
     if let Some(dir) = &args.report {
-        let index = report(&d, &path.display().to_string(), &assumed).write(dir)?;
+        let index = report(&d, &path.display().to_string(), &assumed)?.write(dir)?;
         eprintln!("wrote {}", index.display());
     }
     Ok(())
@@ -92,7 +95,7 @@ fn print_summary(d: &Diagnosis, n: usize) {
     println!("verdict     {}", d.verdict);
 }
 
-fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Page {
+fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Result<Page> {
     let mut page = Page::new("buckid sweep diagnosis", "Steady-state sweep: which DC effects explain the gap");
     page.html(&format!("<p>Sweep <code>{}</code>; verdict <b>{}</b>.</p>", esc(source), esc(&d.verdict)));
     if !assumed.is_empty() {
@@ -104,31 +107,24 @@ fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Page {
     let mut pts: Vec<_> = d.location.by_operating_point.iter().collect();
     pts.sort_by(|a, b| a.duty.total_cmp(&b.duty));
     let series = |f: fn(&dc_sweep::diagnose::PointGap) -> f64| pts.iter().map(|p| (p.duty, f(p))).collect::<Vec<_>>();
-    let plot = Plot {
-        title: "Mean output voltage against duty",
-        x_label: "duty",
-        y_label: "vout [V]",
-        log_x: false,
-        band: None,
-        series: vec![
-            Series { name: "measured", color: "black", points: series(|p| p.measured), stems: true },
-            Series { name: "nominal", color: "#888", points: series(|p| p.expected), stems: false },
-            Series { name: "with the selected effects", color: "#c00", points: series(|p| p.fitted), stems: false },
+    let line = |name: &str, color, mark, f: fn(&dc_sweep::diagnose::PointGap) -> f64| Line { name: name.to_string(), color, mark, points: series(f) };
+    let chart = |title, y: Axis<'static>, lines| Chart { title, x: Axis::linear("duty", ""), panels: vec![Panel { caption: String::new(), y, bands: Vec::new(), lines, height: 220 }] };
+    let plot = chart(
+        "Mean output voltage against duty",
+        Axis::linear("vout", "V"),
+        vec![
+            line("measured", BLACK, Mark::Dots, |p| p.measured),
+            line("nominal", GREY, Mark::Dashed, |p| p.expected),
+            line("with the selected effects", RED, Mark::Solid, |p| p.fitted),
         ],
-    };
-    page.figure("vout_vs_duty", plot.render());
-    let resid = Plot {
-        title: "Residual against duty",
-        x_label: "duty",
-        y_label: "measured − model [V]",
-        log_x: false,
-        band: None,
-        series: vec![
-            Series { name: "nominal", color: "#888", points: series(|p| p.residual), stems: true },
-            Series { name: "with the selected effects", color: "#c00", points: series(|p| p.residual_after), stems: true },
-        ],
-    };
-    page.figure("residual_vs_duty", resid.render());
+    );
+    page.figure("vout_vs_duty", plot.render()?);
+    let resid = chart(
+        "Residual against duty",
+        Axis::linear("measured − model", "V"),
+        vec![line("nominal", GREY, Mark::Dots, |p| p.residual), line("with the selected effects", RED, Mark::Dots, |p| p.residual_after)],
+    );
+    page.figure("residual_vs_duty", resid.render()?);
     let rows: Vec<Vec<String>> = d
         .effects
         .iter()
@@ -136,21 +132,26 @@ fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Page {
             vec![
                 esc(e.name),
                 e.params.as_ref().map_or("—".into(), |p| p.iter().map(|(k, v)| format!("{k} = {}", fmt_param(k, *v))).collect::<Vec<_>>().join(", ")),
-                e.rms_after.map_or("—".into(), |r| format!("{:.1}", r * 1e3)),
-                e.closed_percent.map_or("—".into(), |c| format!("{c:.1}")),
+                e.rms_after.map_or("—".into(), |r| si(r, "V", 3)),
+                e.closed_percent.map_or("—".into(), |c| si(c, "%", 3)),
                 format!("{}", e.significant && e.identifiable),
                 esc(e.note.as_deref().unwrap_or("")),
             ]
         })
         .collect();
     page.html("<h2>Each effect alone</h2>");
-    page.html(&table(&["effect", "params", "RMS after [mV]", "closed [%]", "significant & identified", "note"], &rows));
+    page.html(&table(&["effect", "params", "RMS after", "closed", "significant & identified", "note"], &rows));
     let steps: Vec<Vec<String>> = d
         .selected
         .iter()
-        .map(|s| vec![esc(s.name), s.rms_after.map_or("—".into(), |r| format!("{:.1}", r * 1e3)), s.p_value.map_or("—".into(), |p| format!("{p:.1e}"))])
+        .map(|s| vec![esc(s.name), s.rms_after.map_or("—".into(), |r| si(r, "V", 3)), s.p_value.map_or("—".into(), p_value)])
         .collect();
     page.html("<h2>Forward selection</h2>");
-    page.html(&table(&["added", "RMS after [mV]", "p (F test)"], &steps));
-    page
+    page.html(&table(&["added", "RMS after", "p (F test)"], &steps));
+    Ok(page)
+}
+
+/// A p-value as people read it: `< 0.0001` below that, else two significant digits.
+fn p_value(p: f64) -> String {
+    if p < 1e-4 { "&lt; 0.0001".to_string() } else { si(p, "", 2) }
 }

@@ -10,9 +10,23 @@ pub fn unit_of(name: &str) -> &'static str {
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" => "F",
         "isat" => "A",
+        "fs" => "Hz",
         "delay" => "periods",
         _ => "",
     }
+}
+
+/// Units printed without an SI prefix (ratios, counts, logarithmic and relative measures).
+const UNPREFIXED: [&str; 5] = ["", "periods", "samples", "dB", "%"];
+
+/// The SI prefix for a magnitude: its scale and symbol (`(1e-3, "m")` for 0.0437), or
+/// `(1, "")` for a unit that takes none.
+pub fn prefix(magnitude: f64, unit: &str) -> (f64, &'static str) {
+    const PREFIXES: [(f64, &str); 9] = [(1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"), (1e-12, "p"), (1e-15, "f")];
+    if UNPREFIXED.contains(&unit) || magnitude == 0.0 || !magnitude.is_finite() {
+        return (1.0, "");
+    }
+    PREFIXES.iter().copied().find(|(s, _)| magnitude >= *s * 0.999_5).unwrap_or((1e-15, "f"))
 }
 
 /// `value` with an SI prefix and `digits` significant digits, e.g. `437 mV`, `84.0 nH`.
@@ -20,14 +34,75 @@ pub fn si(value: f64, unit: &str, digits: usize) -> String {
     if !value.is_finite() {
         return format!("{value} {unit}").trim_end().to_string();
     }
-    if unit.is_empty() || unit == "periods" {
-        return format!("{} {unit}", significant(value, digits)).trim_end().to_string();
+    let (scale, prefix) = prefix(value.abs(), unit);
+    format!("{} {prefix}{unit}", significant(value / scale, digits)).trim_end().to_string()
+}
+
+/// An axis tick: `v` as a short plain decimal (no exponent, no trailing zeros), for values
+/// already scaled to their axis's prefix.
+pub fn tick(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".to_string() } else { s.to_string() }
+}
+
+/// Free text from other crates with every number in exponent notation (`1.2345e-3 Ω`)
+/// rewritten with an SI prefix (`1.235 mΩ`), so no page shows an exponent.
+pub fn si_text(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some((start, len, value)) = next_exponent(rest) {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + len..];
+        let unit = after.strip_prefix(' ').and_then(|a| ["Ω", "V", "A", "s", "H", "F", "Hz"].into_iter().find(|u| a.starts_with(u) && !a[u.len()..].starts_with(char::is_alphanumeric)));
+        match unit {
+            Some(u) => {
+                out.push_str(&si(value, u, 4));
+                rest = &after[1 + u.len()..];
+            }
+            None => {
+                out.push_str(&si(value, "", 4));
+                rest = after;
+            }
+        }
     }
-    const PREFIXES: [(f64, &str); 9] = [(1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"), (1e-12, "p"), (1e-15, "f")];
-    let magnitude = value.abs();
-    let (scale, prefix) = PREFIXES.iter().copied().find(|(s, _)| magnitude >= *s * 0.999_5).unwrap_or((1e-15, "f"));
-    let scaled = if magnitude == 0.0 { 0.0 } else { value / scale };
-    format!("{} {prefix}{unit}", significant(scaled, digits))
+    out.push_str(rest);
+    out
+}
+
+/// The first number in exponent notation in `text`: its byte offset, length and value.
+fn next_exponent(text: &str) -> Option<(usize, usize, f64)> {
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = b[i].is_ascii_digit() && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
+        if starts {
+            let from = if i > 0 && b[i - 1] == b'-' { i - 1 } else { i };
+            let mut j = i;
+            while j < b.len() && (b[j].is_ascii_digit() || b[j] == b'.') {
+                j += 1;
+            }
+            if j < b.len() && b[j] == b'e' {
+                let mut k = j + 1;
+                if k < b.len() && (b[k] == b'-' || b[k] == b'+') {
+                    k += 1;
+                }
+                let digits = k;
+                while k < b.len() && b[k].is_ascii_digit() {
+                    k += 1;
+                }
+                if k > digits
+                    && let Ok(v) = text[from..k].parse::<f64>()
+                {
+                    return Some((from, k - from, v));
+                }
+            }
+            i = j.max(i + 1);
+        } else {
+            i += 1;
+        }
+    }
+    None
 }
 
 /// `v` rounded to `digits` significant digits, without an exponent.
@@ -79,6 +154,21 @@ mod tests {
         assert_eq!(si(10.0089e-6, "F", 6), "10.0089 µF");
         assert_eq!(si(0.25, "", 2), "0.25");
         assert_eq!(si(1.0, "V", 3), "1.00 V");
+        assert_eq!(si(0.0123, "dB", 3), "0.0123 dB");
+        assert_eq!(si(62.345, "%", 3), "62.3 %");
+        assert_eq!(prefix(4.5e-3, "s"), (1e-3, "m"));
+    }
+
+    #[test]
+    fn ticks_and_free_text_show_no_exponent() {
+        assert_eq!(tick(0.6000000000000001), "0.6");
+        assert_eq!(tick(-1e-17), "0");
+        assert_eq!(tick(250.0), "250");
+        assert_eq!(
+            si_text("the fitted series resistance 1.2346e-3 Ω is not above the nominal RL 1e-1 Ω: none; x 2.5e3 done"),
+            "the fitted series resistance 1.235 mΩ is not above the nominal RL 100.0 mΩ: none; x 2500 done"
+        );
+        assert_eq!(si_text("rate -4.2e-6 V at 3e2 Hz, name x1e5"), "rate -4.200 µV at 300.0 Hz, name x1e5");
     }
 
     #[test]

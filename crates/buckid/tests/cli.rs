@@ -67,7 +67,51 @@ fn identify_from_a_data_file_writes_the_json_contract_and_a_report() {
     }
     assert!(j["seconds"].as_f64().unwrap() > 0.0);
     let html = std::fs::read_to_string(report.join("index.html")).unwrap();
-    assert_eq!(html.matches("<svg").count(), 4, "traces, ACF, CCF, Bode");
+    assert_eq!(html.matches("<svg").count(), 4, "held-out, ACF, CCF, Bode");
+    // Under the traces, the residual against the ±noise-floor band; the Bode plot's CI95 is a
+    // band and the nominal a dashed line; the legends under the plot areas.
+    let heldout = figure(&html, "heldout");
+    assert!(heldout.contains("residual [mV]") && heldout.contains("time since hold-out start [ms]"), "axes in SI units");
+    assert!(heldout.contains("<polygon") && heldout.contains("±noise floor"), "floor band");
+    let bode = figure(&html, "bode");
+    assert!(bode.contains("<polygon") && bode.contains("CI95 of the fitted Cl") && bode.contains("kHz"));
+    assert_no_exponent(&html);
+}
+
+/// The inline `<svg>` of the page's `<figure id="{id}">`.
+fn figure<'a>(html: &'a str, id: &str) -> &'a str {
+    let start = html.find(&format!("<figure id=\"{id}\">")).unwrap_or_else(|| panic!("no figure {id}"));
+    let end = start + html[start..].find("</figure>").unwrap();
+    &html[start..end]
+}
+
+/// No number in the page's text (tags, attributes and file paths aside) is in exponent
+/// notation like `1.2345e-6`: every number went through the SI helpers.
+fn assert_no_exponent(html: &str) {
+    let mut text = String::new();
+    let (mut in_tag, mut in_code) = (false, false);
+    for (i, c) in html.char_indices() {
+        match c {
+            '<' => {
+                in_tag = true;
+                in_code = if html[i..].starts_with("<code>") { true } else if html[i..].starts_with("</code>") { false } else { in_code };
+            }
+            '>' => {
+                in_tag = false;
+                text.push(' ');
+            }
+            _ if !in_tag && !in_code => text.push(c),
+            _ => {}
+        }
+    }
+    let c: Vec<char> = text.chars().collect();
+    for i in 1..c.len().saturating_sub(2) {
+        let sign = usize::from(c[i + 1] == '-' || c[i + 1] == '+');
+        if c[i - 1].is_ascii_digit() && c[i] == 'e' && c.get(i + 1 + sign).is_some_and(char::is_ascii_digit) {
+            let context: String = c[i.saturating_sub(40)..(i + 20).min(c.len())].iter().collect();
+            panic!("a number in exponent notation: …{context}…");
+        }
+    }
 }
 
 #[test]
@@ -119,27 +163,37 @@ fn diagnose_writes_a_report_whose_figures_hold_the_diagnosis() {
     let read = |f: &str| std::fs::read_to_string(report.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
     // One bar per band, operating point and window of the JSON, each with its value.
     let w = &j["where"];
-    for (file, key) in [("gap_bands.svg", "bands"), ("gap_operating_points.svg", "operating_points"), ("gap_windows.svg", "windows")] {
+    for (file, key, fill) in [("gap_bands.svg", "bands", "#1F77B4"), ("gap_operating_points.svg", "operating_points", "#FF7F0E"), ("gap_windows.svg", "windows", "#FF7F0E")] {
         let svg = read(file);
         let n = w[key].as_array().unwrap().len();
         assert!(n > 0, "{key} empty");
-        assert_eq!(svg.matches(r#"<rect class="bar""#).count(), n, "{file}");
+        assert_eq!(svg.matches(&format!(r#"fill="{fill}""#)).count(), n, "{file}: one bar each");
         assert!(svg.starts_with("<?xml") && svg.trim_end().ends_with("</svg>"), "{file}");
     }
-    let bands = read("gap_bands.svg");
-    let first = &w["bands"][0];
-    let label = format!("{:.1}–{:.1} kHz", first["from_hz"].as_f64().unwrap() / 1e3, first["to_hz"].as_f64().unwrap() / 1e3);
-    assert!(bands.contains(&label), "{label} missing");
-    // The held-out overlay: measured, nominal and (verdict ≠ none) the verdict's simulation,
-    // each a polyline through every held-out sample.
-    let heldout = read("heldout.svg");
+    assert_eq!(read("gap_bands.svg").matches("Hz – ").count(), w["bands"].as_array().unwrap().len(), "band labels with SI prefixes");
+    // The signature: the traces (measured, nominal and, verdict ≠ none, the final model), each
+    // a polyline through every held-out sample, then each model's residual over the ±floor band.
+    let signature = read("signature.svg");
     let held_out = 1500 - (1500.0 * (1.0 - 1.0 / 3.0_f64)).round() as usize;
-    let lines: Vec<usize> = heldout.split("points=\"").skip(1).map(|p| p.split('"').next().unwrap().split_whitespace().count()).collect();
-    let expected = if j["verdict"] == "none" { 2 } else { 3 };
-    assert_eq!(lines, vec![held_out; expected], "points per polyline");
+    let lines: Vec<usize> = signature.split("points=\"").skip(1).map(|p| p.split('"').next().unwrap().split_whitespace().count()).filter(|n| *n > 10).collect();
+    let models = if j["verdict"] == "none" { 1 } else { 2 };
+    assert_eq!(lines, vec![held_out; 1 + 2 * models], "points per polyline: traces, then residuals");
+    assert_eq!(signature.matches("<polygon").count(), models, "a ±floor band under each residual");
+    assert!(signature.contains("±noise floor") && signature.contains("residual [") && signature.contains("× the floor"));
+    // The waterfall: the gap, one bar per selected effect, what is left.
+    let selected = j["selected"].as_array().unwrap();
+    if !selected.is_empty() && selected.iter().all(|e| e["closed_percent"].is_number()) {
+        let waterfall = read("waterfall.svg");
+        assert_eq!(waterfall.matches(r##"fill="#2CA02C""##).count() + waterfall.matches(r##"fill="#D62728""##).count(), selected.len());
+        for e in selected {
+            assert!(waterfall.contains(&format!("+ {} →", e["name"].as_str().unwrap())));
+        }
+    }
     // The page: the figures inline, the table of effects, the verdict and the effects not tested.
     let html = read("index.html");
-    assert_eq!(html.matches("<svg").count(), 4, "bands, operating points, windows, overlay");
+    let figures = 4 + usize::from(report.join("waterfall.svg").exists());
+    assert_eq!(html.matches("<svg").count(), figures, "signature, waterfall, bands, operating points, windows");
+    assert_no_exponent(&html);
     for e in j["effects"].as_array().unwrap() {
         assert!(html.contains(&format!("<td>{}</td>", e["name"].as_str().unwrap())) || html.contains(&format!("<b>{}</b>", e["name"].as_str().unwrap())));
     }

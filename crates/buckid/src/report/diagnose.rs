@@ -1,6 +1,7 @@
-//! The report of `diagnose`: the gap by frequency band, by operating point and by time window
-//! (each against the noise floor), the held-out traces of the measurement, the nominal model
-//! and the verdict, the table of effects and the effects not tested.
+//! The report of `diagnose`: the effect's signature (the held-out residual of the nominal and
+//! of the final model against the ±noise-floor band), the forward selection as a waterfall of
+//! the gap closed, the gap by frequency band, operating point and time window (each against the
+//! floor), the table of effects and the effects not tested.
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
@@ -8,12 +9,12 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use gap::{Diagnosis, Group, Nominal};
 
-use super::{Page, table};
-use crate::svg::{Bar, Bars, Plot, Series, esc};
+use super::plot::{Axis, BLUE, Band, Bar, Bars, Chart, FLOOR, GREEN, GREY, Line, Mark, ORANGE, Panel, RED};
+use super::{Page, esc, table};
 use crate::diagnose::effect_params;
-use crate::units::{si, with_ci};
+use crate::units::{si, si_text, with_ci};
 
-/// Most held-out samples drawn in the trace overlay.
+/// Most held-out samples drawn.
 const MAX_TRACE: usize = 2000;
 
 /// What the report shows besides the diagnosis.
@@ -37,19 +38,45 @@ fn model_name(n: Nominal) -> &'static str {
     }
 }
 
+/// A `[%]` share, or `–` when there is none.
+fn percent(v: Option<f64>) -> String {
+    v.map_or_else(|| "–".to_string(), |c| si(c, "%", 3))
+}
+
 fn group_bars<'a>(title: &'a str, groups: &[Group]) -> Bars<'a> {
     Bars {
         title,
-        value_label: "residual RMS / noise-floor RMS",
-        bars: groups.iter().map(|g| Bar { label: format!("{} ({} samples)", g.label, g.samples), value: g.rms_over_floor }).collect(),
-        reference: Some((1.0, "noise floor")),
-        color: "#ff7f0e",
+        value: Axis::linear("residual RMS / noise-floor RMS", ""),
+        bars: groups.iter().map(|g| Bar::value(format!("{} ({} samples)", si_text(&g.label), g.samples), g.rms_over_floor, "", ORANGE)).collect(),
+        reference: Some((1.0, "noise floor".into())),
+        connect: false,
     }
 }
 
-/// An effect's parameters as the CLI prints them, one per line.
-fn params_html(e: &gap::EffectFit) -> String {
-    effect_params(e).iter().map(|p| esc(p)).collect::<Vec<_>>().join("<br>")
+/// One step of the forward selection, as the waterfall needs it.
+pub struct Step<'a> {
+    /// The effect added.
+    pub name: &'a str,
+    /// Share of the nominal's gap above the floor closed once it is added [%].
+    pub closed_percent: f64,
+    /// Held-out residual RMS with it [V].
+    pub rms_after: f64,
+}
+
+/// The forward selection as a waterfall of the nominal's gap above the noise floor: the gap
+/// (100 %), one bar per selected effect for what it closed, and what is left.
+pub fn waterfall<'a>(gap_rms: f64, steps: &[Step<'_>]) -> Bars<'a> {
+    let mut bars = vec![Bar { label: format!("nominal model, residual {} RMS", si(gap_rms, "V", 3)), from: 0.0, to: 100.0, color: ORANGE, text: si(100.0, "%", 3) }];
+    let mut level = 100.0;
+    for s in steps {
+        let next = 100.0 - s.closed_percent;
+        let closed = level - next;
+        let color = if closed >= 0.0 { GREEN } else { RED };
+        bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed", si(closed, "%", 3)) });
+        level = next;
+    }
+    bars.push(Bar { label: "left above the floor".into(), from: 0.0, to: level, color: GREY, text: si(level, "%", 3) });
+    Bars { title: "The gap above the noise floor, closed effect by effect", value: Axis::linear("share of the nominal's gap above the floor (power)", "%"), bars, reference: None, connect: true }
 }
 
 /// Writes `index.html` and the figures into `dir` and returns the page's path.
@@ -57,10 +84,10 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     let w = &dx.location;
     let bands = Bars {
         title: "Gap by frequency band: residual PSD over the noise floor's",
-        value_label: "dB over the noise floor",
-        bars: w.bands.iter().map(|b| Bar { label: format!("{:.1}–{:.1} kHz", b.from_hz / 1e3, b.to_hz / 1e3), value: b.db_over_floor }).collect(),
-        reference: Some((0.0, "noise floor")),
-        color: "#1f77b4",
+        value: Axis::linear("residual PSD over the noise floor's", "dB"),
+        bars: w.bands.iter().map(|b| Bar::value(format!("{} – {}", si(b.from_hz, "Hz", 3), si(b.to_hz, "Hz", 3)), b.db_over_floor, "dB", BLUE)).collect(),
+        reference: Some((0.0, "noise floor".into())),
+        connect: false,
     };
     let points = group_bars("Gap by operating point", &w.operating_points);
     let windows = group_bars("Gap by time window of the held-out part", &w.windows);
@@ -69,27 +96,40 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     let shown = t.measured.len().min(MAX_TRACE);
     let time = &ctx.data.time[t.start.min(ctx.data.len())..];
     let t0 = time.first().copied().unwrap_or(0.0);
-    let trace = |y: &[f64]| -> Vec<(f64, f64)> { time.iter().zip(y).take(shown).map(|(t, y)| ((t - t0) * 1e3, *y)).collect() };
+    let x: Vec<f64> = time.iter().take(shown).map(|t| t - t0).collect();
+    let line = |name: &str, color, y: &[f64]| Line { name: name.to_string(), color, mark: Mark::Solid, points: x.iter().copied().zip(y.iter().copied()).collect() };
+    let residual = |y: &[f64]| -> Vec<f64> { t.measured.iter().zip(y).take(shown).map(|(m, y)| m - y).collect() };
+    let selected = dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(" + ");
     let nominal_name = format!("nominal {} model", model_name(dx.nominal));
-    let after_name = format!("with {}", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(" + "));
-    let mut series = vec![
-        Series { name: "measured", color: "#999", points: trace(&t.measured), stems: false },
-        Series { name: &nominal_name, color: "#1f77b4", points: trace(&t.nominal), stems: false },
-    ];
+    let final_name = format!("with {selected}");
+    let floor = w.noise_floor_rms;
+    let band = || Band::symmetric(format!("±noise floor ({} RMS)", si(floor, "V", 3)), FLOOR, floor, (0.0, x.last().copied().unwrap_or(1.0)));
+    let mut models: Vec<(&str, &[f64], _)> = vec![(nominal_name.as_str(), t.nominal.as_slice(), BLUE)];
     if let Some(after) = &t.after {
-        series.push(Series { name: &after_name, color: "#d62728", points: trace(after), stems: false });
+        models.push((final_name.as_str(), after.as_slice(), RED));
     }
     if let Some((_, _, sim)) = ctx.fmu {
-        series.push(Series { name: "FMU as given", color: "#2ca02c", points: trace(sim), stems: false });
+        models.push(("FMU as given", sim, GREEN));
     }
-    let overlay = Plot {
-        title: "Held-out data: measured, nominal model and the final model",
-        x_label: "time since hold-out start [ms]",
-        y_label: "vout [V]",
-        log_x: false,
-        band: None,
-        series,
-    };
+    let mut panels = vec![Panel {
+        caption: "vout: measured and simulated".into(),
+        y: Axis::linear("vout", "V"),
+        bands: Vec::new(),
+        lines: std::iter::once(line("measured", GREY, &t.measured[..shown])).chain(models.iter().map(|(name, y, color)| line(name, *color, y))).collect(),
+        height: 130,
+    }];
+    for (name, y, color) in &models {
+        panels.push(Panel {
+            caption: format!("measured − {name}: {} RMS, {}× the floor", si(rms(&residual(y)), "V", 3), si(rms(&residual(y)) / floor, "", 3)),
+            y: Axis::linear("residual", "V"),
+            bands: vec![band()],
+            lines: vec![line("", *color, &residual(y))],
+            height: 110,
+        });
+    }
+    let signature = Chart { title: "Held-out residual against the noise floor: the effect's signature", x: Axis::linear("time since hold-out start", "s"), panels };
+
+    let steps: Option<Vec<Step<'_>>> = dx.selected.iter().map(|e| Some(Step { name: e.name, closed_percent: e.closed_percent?, rms_after: e.rms_after })).collect();
 
     let rows: Vec<Vec<String>> = dx
         .effects
@@ -100,25 +140,34 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
                 name,
                 params_html(e),
                 esc(&with_ci(e.cl.estimate, Some(e.cl.ci95), "F")),
-                format!("{:.4}", e.nrmse_after),
-                format!("{:.1}", e.shrink_percent),
-                e.closed_percent.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
-                format!("{:.1}", e.delta_aic),
+                si(e.nrmse_after, "", 3),
+                si(e.shrink_percent, "%", 3),
+                percent(e.closed_percent),
+                si(e.delta_aic, "", 3),
                 match (e.lr_statistic, e.lr_limit) {
-                    (Some(s), Some(l)) => format!("{s:.1} / {l:.1}"),
-                    (Some(s), None) => format!("{s:.1}"),
+                    (Some(s), Some(l)) => format!("{} / {}", si(s, "", 3), si(l, "", 3)),
+                    (Some(s), None) => si(s, "", 3),
                     _ => "–".to_string(),
                 },
                 e.standing().to_string(),
             ]
         })
         .collect();
-    let not_tested: String = dx.not_tested.iter().map(|n| format!("<li><code>{}</code>: {}</li>", n.name, esc(&n.reason))).collect();
+    let not_tested: String = dx.not_tested.iter().map(|n| format!("<li><code>{}</code>: {}</li>", n.name, esc(&si_text(&n.reason)))).collect();
     let p = ctx.nominal;
 
     let mut page = Page::new("buckid diagnose", "Sim-to-real gap diagnosis");
+    let (cl, ci95, test) = dx.final_cl();
     page.html(&format!(
-        "<p>Data: <code>{}</code>, {} held-out samples of {}. Nominal model: <b>{}</b> with L = {}, RL = {}, C = {}, Rc = {}, fs = {}{}{}.</p>",
+        "<p class=\"result\"><b>Verdict: {}</b>{}. Cl of the final model: <b>{}</b>; {}.</p>",
+        esc(&dx.verdict),
+        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")) } else { String::new() },
+        esc(&with_ci(cl, Some(ci95), "F")),
+        esc(&si_text(&test)),
+    ));
+    page.html(&format!(
+        "<p>Data: <code>{}</code>, {} held-out samples of {}. Nominal model: <b>{}</b> with L = {}, RL = {}, C = {}, Rc = {}, fs = {}{}{}. \
+Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({}; nominal fit Cl = {}).{}</p>",
         esc(ctx.source),
         t.measured.len(),
         ctx.data.len(),
@@ -129,55 +178,68 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         si(p.rc, "Ω", 4),
         si(p.fs, "Hz", 6),
         if p.rload > 0.0 { format!(", load resistor {}", si(p.rload, "Ω", 4)) } else { String::new() },
-        if ctx.assumed.is_empty() { String::new() } else { format!(" (assumed: {})", esc(&ctx.assumed.join("; "))) },
-    ));
-    page.html(&format!(
-        "<p><b>Verdict: {}</b>{}. Gap before: held-out NRMSE {:.4} (nominal fit, Cl = {:.4} µF).{}</p>",
-        esc(&dx.verdict),
-        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")) } else { String::new() },
-        dx.gap_before.nrmse,
-        dx.gap_before.cl * 1e6,
-        ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {nrmse:.4}.", esc(path))),
-    ));
-    let (cl, ci95, test) = dx.final_cl();
-    page.html(&format!("<p>Cl of the final model: {}; {}.</p>", esc(&with_ci(cl, Some(ci95), "F")), esc(&test)));
-    let steps: Vec<Vec<String>> = dx
-        .selected
-        .iter()
-        .enumerate()
-        .map(|(i, e)| {
-            vec![
-                format!("{}", i + 1),
-                format!("<b>{}</b>", e.name),
-                params_html(e),
-                e.closed_percent.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
-                e.closed_of_remaining.map_or_else(|| "–".to_string(), |c| format!("{c:.1}")),
-                esc(&si(e.rms_after, "V", 3)),
-            ]
-        })
-        .collect();
-    page.html("<h2>Effects selected, in order</h2>");
-    if steps.is_empty() {
-        page.html(&format!("<p>None: {}.</p>", esc(&dx.selection_ended)));
-    } else {
-        page.html(&table(&["step", "effect", "parameters at the final fit [CI95]", "gap over the floor closed [%]", "of what was left [%]", "held-out residual RMS"], &steps));
-        page.html(&format!("<p>The sequence ended: {}.</p>", esc(&dx.selection_ended)));
-    }
-    page.html(&format!(
-        "<p>Where: {} (noise floor {:.3e} V RMS: {}; held-out residual {:.3e} V RMS).</p>",
-        esc(&w.summary),
-        w.noise_floor_rms,
+        if ctx.assumed.is_empty() { String::new() } else { format!(" (assumed: {})", esc(&si_text(&ctx.assumed.join("; ")))) },
+        si(dx.gap_before.nrmse, "", 3),
+        si(dx.gap_before.rms, "V", 3),
+        si(floor, "V", 3),
         esc(w.noise_floor_from.describe()),
-        dx.gap_before.rms
+        si(dx.gap_before.cl, "F", 4),
+        ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {}.", esc(path), si(nrmse, "", 3))),
     ));
-    page.figure("gap_bands", bands.render());
-    page.figure("gap_operating_points", points.render());
-    page.figure("gap_windows", windows.render());
-    page.figure("heldout", overlay.render());
+    page.figure("signature", signature.render()?);
+    page.html("<h2>Effects selected, in order</h2>");
+    if dx.selected.is_empty() {
+        page.html(&format!("<p>None: {}.</p>", esc(&si_text(&dx.selection_ended))));
+    } else {
+        match &steps {
+            Some(steps) => page.figure("waterfall", waterfall(dx.gap_before.rms, steps).render()?),
+            None => page.html("<p>No waterfall: the nominal's gap is within the noise floor, so there is no share to close.</p>"),
+        }
+        let rows: Vec<Vec<String>> = dx
+            .selected
+            .iter()
+            .enumerate()
+            .map(|(i, e)| vec![format!("{}", i + 1), format!("<b>{}</b>", e.name), params_html(e), percent(e.closed_percent), percent(e.closed_of_remaining), si(e.rms_after, "V", 3)])
+            .collect();
+        page.html(&table(&["step", "effect", "parameters at the final fit (CI95)", "gap over the floor closed", "of what was left", "held-out residual RMS"], &rows));
+        page.html(&format!("<p>The sequence ended: {}.</p>", esc(&si_text(&dx.selection_ended))));
+    }
+    page.html("<h2>Where the nominal model misses</h2>");
+    page.html(&format!("<p>{}.</p>", esc(&si_text(&w.summary))));
+    page.figure("gap_bands", bands.render()?);
+    page.figure("gap_operating_points", points.render()?);
+    page.figure("gap_windows", windows.render()?);
     page.html("<h2>Effects, best held-out error first</h2>");
-    page.html(&table(&["effect", "parameters [CI95]", "Cl [CI95]", "NRMSE after", "shrink [%]", "gap over the floor closed [%]", "ΔAIC", "LR / 99 %", "standing"], &rows));
+    page.html(&table(&["effect", "parameters (CI95)", "Cl (CI95)", "NRMSE after", "shrink", "gap over the floor closed", "ΔAIC", "LR / 99 %", "standing"], &rows));
     if !not_tested.is_empty() {
         page.html(&format!("<h2>Not tested</h2><ul>{not_tested}</ul>"));
     }
     page.write(dir)
+}
+
+/// An effect's parameters as the CLI prints them, one per line.
+fn params_html(e: &gap::EffectFit) -> String {
+    effect_params(e).iter().map(|p| esc(p)).collect::<Vec<_>>().join("<br>")
+}
+
+/// Root mean square of `x`.
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_waterfall_has_the_gap_one_bar_per_selected_effect_and_what_is_left() {
+        let steps = [Step { name: "diode_drop", closed_percent: 80.0, rms_after: 3e-3 }, Step { name: "dead_time", closed_percent: 95.0, rms_after: 2.1e-3 }];
+        let w = waterfall(9e-3, &steps);
+        let spans: Vec<(f64, f64)> = w.bars.iter().map(|b| (b.from, b.to)).collect();
+        assert_eq!(spans, vec![(0.0, 100.0), (20.0, 100.0), (5.0, 20.0), (0.0, 5.0)]);
+        assert_eq!(w.bars[2].text, "15.0 % closed");
+        let svg = w.render().unwrap();
+        assert_eq!(svg.matches(r##"fill="#2CA02C""##).count(), 2, "one green bar per selected effect");
+        assert!(svg.contains("+ dead_time → 2.10 mV") && svg.contains("nominal model, residual 9.00 mV RMS"));
+    }
 }
