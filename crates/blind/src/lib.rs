@@ -85,6 +85,10 @@ pub struct Case {
     pub truth: Truth,
     /// Where the data came from.
     pub source: &'static str,
+    /// RMS of what the withheld effects alone add to `vout` over the held-out third [V], where
+    /// a twin without them was run (the harness: its late ADC leaves a gap of its own); else
+    /// the gap the nominal model leaves decides detectability.
+    pub effect_rms: Option<f64>,
 }
 
 /// The effects a plant dataset may withhold: clean data (`none`) against a switched model, and
@@ -204,7 +208,7 @@ pub fn plant_case(truth: Truth, seed: u64, fmu: Option<&Path>) -> Result<Case, E
         }
     };
     let model = model_for(truth.effect);
-    Ok(Case { data: blind(data), nominal: Params::default(), model, truth, source: if fmu.is_some() { "fmu" } else { "in-process" } })
+    Ok(Case { data: blind(data), nominal: Params::default(), model, truth, source: if fmu.is_some() { "fmu" } else { "in-process" }, effect_rms: None })
 }
 
 /// How to run the ngspice generator (`scripts/spice/buck_spice.py`).
@@ -286,7 +290,7 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     let noise = Normal::new(0.0, truth.noise).map_err(|e| EstimatorError::Config(e.to_string()))?;
     data.vout.iter_mut().for_each(|v| *v += noise.sample(&mut rng));
     let model = model_for(truth.effect);
-    Ok(Case { data: blind(data), nominal, model, truth, source: "ngspice" })
+    Ok(Case { data: blind(data), nominal, model, truth, source: "ngspice", effect_rms: None })
 }
 
 /// How to run the independent harness (`scripts/spice/harness/harness.py`): circuits written
@@ -428,41 +432,75 @@ fn harness_topology(effects: &[&str]) -> &'static str {
     }
 }
 
+/// The harness settings that make a withheld effect, which its twin run leaves out (back to
+/// the harness's near-ideal defaults); `None` where the effect is the topology itself (a diode
+/// or a dead time has no twin without it).
+fn harness_effect_keys(effect: &str) -> Option<&'static [&'static str]> {
+    match effect {
+        "switch_resistance" => Some(&["ron_hs", "ron_ls"]),
+        "load_esr" => Some(&["load_esr"]),
+        "esl" => Some(&["esl"]),
+        "param_drift" => Some(&["L", "C", "Rc"]),
+        "inductor_saturation" => Some(&["sat", "isat"]),
+        "cap_dc_bias" => Some(&["dcbias", "vrated"]),
+        _ => None,
+    }
+}
+
 /// A dataset of `periods` periods from the independent harness (its own noise, seeded by
 /// `seed`), to be diagnosed against the design's nominal values and the switched model.
+///
+/// Where the withheld effects have a twin ([`harness_effect_keys`]), the harness runs again
+/// without them, same seed (same PRBS, same noise, same late ADC): the RMS of the difference in
+/// `vout` over the held-out third is what the effects themselves leave ([`Case::effect_rms`]),
+/// which the ADC's own gap would otherwise hide from the detection limit.
 pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) -> Result<Case, EstimatorError> {
     let dir = tempfile::tempdir().map_err(|e| EstimatorError::Io { path: "temporary directory".into(), source: e })?;
-    let out = dir.path().join("data.csv");
-    let mut args: Vec<String> = vec![
-        "--topology".into(),
-        harness_topology(&truth.effects()).into(),
-        "--periods".into(),
-        periods.to_string(),
-        "--seed".into(),
-        (seed % 1_000_000_007).max(1).to_string(),
-        "--cl".into(),
-        format!("{:e}", truth.cl),
-        "--io".into(),
-        format!("{}", truth.io),
-        "--effects".into(),
-        truth.effects().join(","),
-        "--out".into(),
-        out.display().to_string(),
-    ];
-    for (name, value) in &truth.settings {
-        args.extend([format!("--{}", name.replace('_', "-")), format!("{value:e}")]);
-    }
-    let output = Command::new(&harness.python)
-        .arg(&harness.script)
-        .args(&args)
-        .output()
-        .map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
-    if !output.status.success() {
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));
-    }
-    let data = DataSet::read_csv(&out)?;
-    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness" })
+    let run = |settings: &[(&'static str, f64)], file: &str| -> Result<DataSet, EstimatorError> {
+        let out = dir.path().join(file);
+        let mut args: Vec<String> = vec![
+            "--topology".into(),
+            harness_topology(&truth.effects()).into(),
+            "--periods".into(),
+            periods.to_string(),
+            "--seed".into(),
+            (seed % 1_000_000_007).max(1).to_string(),
+            "--cl".into(),
+            format!("{:e}", truth.cl),
+            "--io".into(),
+            format!("{}", truth.io),
+            "--effects".into(),
+            truth.effects().join(","),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        for (name, value) in settings {
+            args.extend([format!("--{}", name.replace('_', "-")), format!("{value:e}")]);
+        }
+        let output = Command::new(&harness.python)
+            .arg(&harness.script)
+            .args(&args)
+            .output()
+            .map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
+        if !output.status.success() {
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));
+        }
+        DataSet::read_csv(&out)
+    };
+    let data = run(&truth.settings, "data.csv")?;
+    let keys: Option<Vec<&str>> = truth.effects().iter().map(|e| harness_effect_keys(e)).collect::<Option<Vec<_>>>().map(|k| k.concat());
+    let effect_rms = match keys.filter(|k| !k.is_empty()) {
+        Some(keys) => {
+            let settings: Vec<(&'static str, f64)> = truth.settings.iter().copied().filter(|(k, _)| !keys.contains(k)).collect();
+            let twin = run(&settings, "twin.csv")?;
+            let start = data.len() - data.len() / 3;
+            let d: Vec<f64> = data.vout[start..].iter().zip(&twin.vout[start..]).map(|(a, b)| a - b).collect();
+            Some((d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt())
+        }
+        None => None,
+    };
+    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness", effect_rms })
 }
 
 /// The packaged FMU, rebuilt by `cargo xtask fmu` when missing or older than its sources
@@ -494,8 +532,9 @@ pub struct Outcome {
     /// ([`Truth::measurement_noise`]) that the verdict's effect closed [%]; `None` when the
     /// nominal model's gap is not above that noise ([`gap::closed_percent`]).
     pub closed_percent: Option<f64>,
-    /// The nominal model misses the data by more than the true measurement noise
-    /// ([`gap::gap_above`]): the withheld effect is detectable at all.
+    /// The withheld effect is detectable at all: what it adds to `vout` ([`Case::effect_rms`],
+    /// where a twin was run), else the nominal model's miss, exceeds the true measurement noise
+    /// ([`gap::gap_above`]).
     pub detectable: bool,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
@@ -584,7 +623,11 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             let (cl, ci95, _) = dx.final_cl();
             outcome.final_cl = Some((cl, ci95));
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
-            outcome.detectable = gap::gap_above(dx.gap_before.rms, case.truth.measurement_noise());
+            let noise = case.truth.measurement_noise();
+            outcome.detectable = match case.effect_rms {
+                Some(rms) => gap::gap_above(rms.hypot(noise), noise),
+                None => gap::gap_above(dx.gap_before.rms, noise),
+            };
             outcome.closed_percent = best.and_then(|e| gap::closed_percent(dx.gap_before.rms, e.rms_after, case.truth.measurement_noise()));
             outcome.noise_floor = (dx.location.noise_floor_from == gap::FloorSource::Differences).then_some(dx.location.noise_floor_rms);
             outcome.cl = best.map(|e| (e.cl.estimate, e.cl.ci95));

@@ -212,7 +212,7 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
     let resistance = run(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() }).map_err(|e| format!("its fit failed: {e}")).and_then(|cand| {
         let e = cand.fit.estimate("RL").copied().ok_or("no estimate of RL")?;
         if e.value <= nominal.rl {
-            return Err(format!("the fitted series resistance {:.4e} Ω is not above the nominal RL {:.4e} Ω: none is added", e.value, nominal.rl));
+            return Err(format!("the fitted series resistance {:.2} mΩ is not above the nominal RL {:.2} mΩ: none is added", e.value * 1e3, nominal.rl * 1e3));
         }
         let params = BTreeMap::from([("switch_resistance".to_string(), e.value - nominal.rl)]);
         let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);

@@ -233,7 +233,7 @@ impl Extension {
                 params.insert(key.to_string(), e.value - nominal.rl);
                 ci95.insert(key.to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl]);
                 if e.value <= base {
-                    return Err(format!("the fitted series resistance {:.4e} Ω is not above the model's {base:.4e} Ω: none is added", e.value));
+                    return Err(format!("the fitted series resistance {:.2} mΩ is not above the model's {:.2} mΩ: none is added", e.value * 1e3, base * 1e3));
                 }
             }
             "param_drift" => {
