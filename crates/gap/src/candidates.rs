@@ -9,7 +9,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::Criterion;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, gap_material, held_out_nrmse, judge, rms, variance};
+use crate::effect::{Baseline, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, variance};
 use crate::options::{DiagnoseOptions, Nominal, nominal_options};
 
 fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candidate, String> {
@@ -110,10 +110,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
                     let mut fit = judge(name, trial, reference).0;
                     fit.aic += offset;
                     if let Some(late) = late.filter(|_| !not_nested) {
-                        fit.il_closed_percent = late_reading_in_il(data, &reference.fit.params, &late, n_est);
-                        // Read late by an instant that explains the current: a finding whatever
-                        // else moves vout (converged inside its range and identified).
-                        fit.finding |= fit.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && fit.identifiable && !fit.at_bound;
+                        fit.judge_in_il(data, &reference.fit.params, &late, n_est);
                     }
                     fit.ruled_out_above = limits.get(name).copied().filter(|_| !fit.significant);
                     fits.push(fit);
@@ -133,35 +130,6 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
     out.extend(ripple.map(|r| r.0));
     out.extend(extra);
     Fitted { effects: out, not_tested, switched }
-}
-
-/// Share of the inductor current's material gap a late reading must close to be a finding on
-/// its own [%]: nearly all of it, so that a reading delay is not named for what another effect
-/// does to `il` (an inductance off nominal or saturating changes its slope, which a shift in
-/// time follows only in part).
-const IL_EXPLAINED: f64 = 75.0;
-
-/// Most the late reading may leave of `il`'s residual, in multiples of its noise floor, to be a
-/// finding on its own: a delay that only shrinks a model's failure (a missing diode, DCM: amperes
-/// of error) is not a late reading, whatever share it closes.
-const IL_LEFT_FLOORS: f64 = 10.0;
-
-/// The share of the measured `il`'s material gap above its own noise floor (held-out samples
-/// from `n_est`) that the late-reading model `late` closes against the model `nominal` [%];
-/// `None` without `il`, without a floor for it, when `nominal` does not miss it materially, or
-/// when the late reading leaves more than [`IL_LEFT_FLOORS`] floors of it.
-/// Both simulated from the first measured `vout` (the start has long decayed by `n_est`).
-fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: usize) -> Option<f64> {
-    let il = data.il.as_ref()?;
-    let (floor, floor_samples) = estimator::noise::white_noise(data, il)?;
-    let rms_of = |p: &Params| -> Option<f64> {
-        let (_, sim) = estimator::simulated::simulate_outputs(p, data, data.vout[0]).ok()?;
-        Some(rms(&il[n_est..].iter().zip(&sim[n_est..]).map(|(m, s)| m - s).collect::<Vec<f64>>()))
-    };
-    let (before, after) = (rms_of(nominal)?, rms_of(late)?);
-    let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
-    // Beyond IL_LEFT_FLOORS the share is not reported: the late reading explains nothing.
-    (gap_material(before, data.len() - n_est, floor, floor_samples) && after <= IL_LEFT_FLOORS * floor).then_some(closed)
 }
 
 /// Fits each nonlinear effect with `[Cl, its parameters]` free on the plant simulator, from the

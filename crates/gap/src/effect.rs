@@ -176,6 +176,62 @@ impl EffectFit {
     }
 }
 
+/// Share of the inductor current's material gap a late reading must close to be a finding on
+/// its own [%]: nearly all of it, so that a reading delay is not named for what another effect
+/// does to `il` (an inductance off nominal or saturating changes its slope, which a shift in
+/// time follows only in part).
+const IL_EXPLAINED: f64 = 75.0;
+
+/// Most the late reading may leave of `il`'s residual, in multiples of its noise floor, to be a
+/// finding on its own: a delay that only shrinks a model's failure (a missing diode, DCM: amperes
+/// of error) is not a late reading, whatever share it closes.
+const IL_LEFT_FLOORS: f64 = 10.0;
+
+/// The held-out residual RMS of the measured `il` under circuit values `p` (simulated from the
+/// first measured `vout`: the start has long decayed by `n_est`), with `il`'s white-noise floor
+/// and the number of differences it was estimated from; `None` without `il` or a floor for it.
+fn il_residual(data: &DataSet, p: &Params, n_est: usize) -> Option<(f64, f64, usize)> {
+    let il = data.il.as_ref()?;
+    let (floor, floor_samples) = estimator::noise::white_noise(data, il)?;
+    let (_, sim) = estimator::simulated::simulate_outputs(p, data, data.vout[0]).ok()?;
+    Some((rms(&il[n_est..].iter().zip(&sim[n_est..]).map(|(m, s)| m - s).collect::<Vec<f64>>()), floor, floor_samples))
+}
+
+/// Whether the model with circuit values `p` misses the measured `il` materially above its
+/// floor ([`gap_material`]): where a late reading could show.
+pub(crate) fn il_misses_materially(data: &DataSet, p: &Params, n_est: usize) -> bool {
+    il_residual(data, p, n_est).is_some_and(|(rms, floor, floor_samples)| gap_material(rms, data.len() - n_est, floor, floor_samples))
+}
+
+/// The share of the measured `il`'s material gap above its own noise floor (held-out samples
+/// from `n_est`) that the late-reading model `late` closes against the model `nominal` [%];
+/// `None` without `il`, without a floor for it, when `nominal` does not miss it materially, or
+/// when the late reading leaves more than [`IL_LEFT_FLOORS`] floors of it.
+pub(crate) fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: usize) -> Option<f64> {
+    let (before, floor, floor_samples) = il_residual(data, nominal, n_est)?;
+    let (after, ..) = il_residual(data, late, n_est)?;
+    let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
+    // Beyond IL_LEFT_FLOORS the share is not reported: the late reading explains nothing.
+    (gap_material(before, data.len() - n_est, floor, floor_samples) && after <= IL_LEFT_FLOORS * floor).then_some(closed)
+}
+
+impl EffectFit {
+    /// For a late reading (`sample_delay`, circuit values `late`) fitted on top of the model
+    /// `against`: sets [`EffectFit::il_closed_percent`], and makes it a finding when it explains
+    /// the inductor current by itself (at least [`IL_EXPLAINED`] % of its material gap, no more
+    /// than [`IL_LEFT_FLOORS`] floors left), identified and inside its range, whatever else
+    /// moves `vout`.
+    pub(crate) fn judge_in_il(&mut self, data: &DataSet, against: &Params, late: &Params, n_est: usize) {
+        self.il_closed_percent = late_reading_in_il(data, against, late, n_est);
+        self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound;
+    }
+
+    /// A late reading found in the inductor current (and not on `vout`).
+    pub(crate) fn late_in_il(&self) -> bool {
+        self.finding && !self.material && self.il_closed_percent.is_some()
+    }
+}
+
 /// What every candidate is measured against: the nominal model's held-out error and Cl, and
 /// the noise floor.
 #[derive(Debug, Clone, Copy)]

@@ -158,7 +158,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // A drift within tolerance that explains best leaves nothing to name.
     // A late reading the inductor current shows by itself comes first: it is how the data was
     // taken, and every circuit effect is then tested on top of it.
-    let late_in_il = effects.iter().find(|e| e.finding && !e.material && e.il_closed_percent.is_some());
+    let late_in_il = effects.iter().find(|e| e.late_in_il());
     let first = late_in_il.or_else(|| select::best_material(effects.iter(), |e| e));
     let (mut selected, selection_ended) = match first {
         Some(first) if first.finding => select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline),

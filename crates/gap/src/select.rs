@@ -20,7 +20,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, judge, residual, rms, variance};
+use crate::effect::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -361,18 +361,31 @@ pub(crate) fn forward(
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
         if stack.switched {
             let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
-            extensions = screen(data, &stack, extensions, variance(&against), gap_power, n_est);
+            // A late reading is judged in il, which the vout screen cannot see: tried wherever
+            // the model so far misses il materially.
+            let il_missed = il_misses_materially(data, &stack.params, n_est);
+            let (late, rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
+            extensions = screen(data, &stack, rest, variance(&against), gap_power, n_est);
+            extensions.extend(late);
         }
         let trials: Vec<(usize, EffectFit, Candidate)> = extensions
             .par_iter()
             .enumerate()
             .filter_map(|(i, x)| x.trial(data, nominal, n_est, holdout).ok().map(|t| (i, t)))
             .map(|(i, t)| {
-                let (fit, cand) = judge(extensions[i].name, t, &against, n_est, baseline);
+                let (mut fit, cand) = judge(extensions[i].name, t, &against, n_est, baseline);
+                if fit.name == "sample_delay" {
+                    fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est);
+                }
                 (i, fit, cand)
             })
             .collect();
-        let Some((i, fit, cand)) = best_material(trials.into_iter(), |t| &t.1) else {
+        // A late reading the current shows comes first, as in the first step.
+        let next = match trials.iter().position(|t| t.1.late_in_il()) {
+            Some(k) => trials.into_iter().nth(k),
+            None => best_material(trials.into_iter(), |t| &t.1),
+        };
+        let Some((i, fit, cand)) = next else {
             return (selected, "no further effect is a finding".to_string());
         };
         if !fit.finding {
