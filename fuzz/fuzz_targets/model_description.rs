@@ -1,0 +1,16 @@
+//! The modelDescription parser: any text gives a description or a `SchemaError` with a
+//! message; what parses can be checked and written back without a panic.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(xml) = std::str::from_utf8(data) else { return };
+    match fmi2_schema::ModelDescription::from_xml(xml) {
+        Ok(md) => {
+            let _ = md.problems();
+            let _ = md.to_xml();
+        }
+        Err(e) => assert!(!e.to_string().trim().is_empty()),
+    }
+});
