@@ -98,6 +98,11 @@ pub struct Instance {
     phase: Phase,
     logger: Logger,
     log_calls: bool,
+    /// Addresses of the FMU states this instance allocated and the host has not freed: freed
+    /// with the instance (FMI 2.0 `fmi2FreeInstance` frees all memory the FMU allocated; a host
+    /// that forgot them leaked, found by valgrind), and a pointer not in here is refused
+    /// instead of being dereferenced (a state freed twice or another instance's).
+    pub(crate) states: std::collections::HashSet<usize>,
 }
 
 impl Instance {
@@ -112,7 +117,13 @@ impl Instance {
             logger(Status::Error, "logStatusError", &msg);
             return Err(msg);
         }
-        Ok(Self { converter: default_converter(), phase: Phase::Instantiated, logger, log_calls: false })
+        Ok(Self {
+            converter: default_converter(),
+            phase: Phase::Instantiated,
+            logger,
+            log_calls: false,
+            states: Default::default(),
+        })
     }
 
     /// Current phase of the state machine.
