@@ -379,6 +379,22 @@ pub struct Unknown {
     pub dependencies: Option<String>,
 }
 
+/// The root element's `fmiVersion` attribute, read without the FMI 2.0 structure: tells an
+/// FMI 1.0 or 3.0 file (which [`ModelDescription::from_xml`] cannot read) from a broken 2.0 one.
+///
+/// ```
+/// let v = fmi2_schema::fmi_version_of(r#"<fmiModelDescription fmiVersion="3.0"><ModelVariables/></fmiModelDescription>"#);
+/// assert_eq!(v.as_deref(), Some("3.0"));
+/// ```
+pub fn fmi_version_of(xml: &str) -> Option<String> {
+    #[derive(Deserialize)]
+    struct Root {
+        #[serde(rename = "@fmiVersion")]
+        fmi_version: String,
+    }
+    quick_xml::de::from_str::<Root>(xml).ok().map(|r| r.fmi_version)
+}
+
 impl ModelDescription {
     /// Parses a `modelDescription.xml` document.
     pub fn from_xml(xml: &str) -> Result<Self, SchemaError> {
