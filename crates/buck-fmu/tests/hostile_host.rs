@@ -623,7 +623,7 @@ impl Host {
                     }
                     2 => {
                         let k = 8 + self.rng.below(bytes.len() - 8);
-                        bytes[k] = self.rng.next() as u8;
+                        bytes[k] ^= 1 + self.rng.below(255) as u8; // never the same byte
                     }
                     _ => bytes.extend_from_slice(&[0xff; 9]),
                 }
