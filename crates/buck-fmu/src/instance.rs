@@ -308,7 +308,7 @@ impl Instance {
             );
         }
         let periods = step * self.converter.params().fs;
-        if !(periods <= MAX_PERIODS_PER_STEP) {
+        if periods.is_nan() || periods > MAX_PERIODS_PER_STEP {
             return self.error(
                 FUNC,
                 format!(

@@ -467,12 +467,12 @@ impl Host {
         let kind = [Kind::Real, Kind::Integer, Kind::Boolean][self.rng.below(3)];
         let vrs = self.pick_vrs(kind);
         let null = !vrs.is_empty() && self.rng.chance(5);
-        let mut want = OK;
-        if null || !Self::allowed(m, &[Init, StepComplete, Terminated, Error]) {
-            want = ERROR;
-        } else if vrs.iter().any(|vr| self.vars.iter().find(|v| v.vr == *vr).is_none_or(|v| v.kind != kind)) {
-            want = ERROR;
-        }
+        let bad_vr = |vr: &u32| self.vars.iter().find(|v| v.vr == *vr).is_none_or(|v| v.kind != kind);
+        let want = if null || !Self::allowed(m, &[Init, StepComplete, Terminated, Error]) || vrs.iter().any(bad_vr) {
+            ERROR
+        } else {
+            OK
+        };
         if want == ERROR {
             m.phase = Error;
         }
@@ -516,11 +516,8 @@ impl Host {
         };
         // The FMU takes at most MAX_PERIODS_PER_STEP periods per call (a hang guard).
         let periods = h * self.fs(m);
-        let mut want = if !Self::allowed(m, &[StepComplete]) {
-            ERROR
-        } else if !(h > 0.0 && h.is_finite()) || t.is_nan() || (t - m.time).abs() > 0.5 * h {
-            ERROR
-        } else if periods > buck_fmu::instance::MAX_PERIODS_PER_STEP {
+        let bad_step = !(h > 0.0 && h.is_finite()) || t.is_nan() || (t - m.time).abs() > 0.5 * h;
+        let mut want = if !Self::allowed(m, &[StepComplete]) || bad_step || periods > buck_fmu::instance::MAX_PERIODS_PER_STEP {
             ERROR
         } else {
             m.time = t + h;
@@ -529,8 +526,8 @@ impl Host {
         if want == ERROR {
             m.phase = Error;
         }
-        // SAFETY: a live component; scalars only.
         let start = Instant::now();
+        // SAFETY: a live component; scalars only.
         let st = unsafe { fmi2DoStep(c, t, h, 0) };
         if start.elapsed() > Duration::from_secs(5) {
             self.wrong.push(format!("fmi2DoStep({t}, {h}) took {:?}", start.elapsed()));
@@ -571,8 +568,8 @@ impl Host {
             _ if !self.live[i].states.is_empty() => {
                 let k = self.rng.below(self.live[i].states.len());
                 let (mut s, _) = self.live[i].states.swap_remove(k);
-                // SAFETY: a live component and its state, freed once.
                 let freed = s;
+                // SAFETY: a live component and its state, freed once.
                 let st = unsafe { fmi2FreeFMUstate(c, &mut s) };
                 self.expect("fmi2FreeFMUstate", &[OK], st, false);
                 assert!(s.is_null(), "fmi2FreeFMUstate must null the slot");
