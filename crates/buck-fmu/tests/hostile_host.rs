@@ -717,6 +717,20 @@ impl Host {
                 m.phase = Error;
                 self.expect("fmi2GetString", &[ERROR], st, true);
             }
+            4 if self.rng.chance(50) => {
+                // nvr huge with null arrays: rejected before anything is read or allocated.
+                let n = [usize::MAX, usize::MAX / 8, 1 << 40][self.rng.below(3)];
+                // SAFETY: null arrays, which the FMU must reject whatever nvr says.
+                let st = unsafe {
+                    match self.rng.below(3) {
+                        0 => fmi2GetReal(c, ptr::null(), n, ptr::null_mut()),
+                        1 => fmi2SetReal(c, ptr::null(), n, ptr::null()),
+                        _ => fmi2SetInteger(c, ptr::null(), n, ptr::null()),
+                    }
+                };
+                m.phase = Error;
+                self.expect(&format!("nvr {n} with null arrays"), &[ERROR], st, true);
+            }
             _ => {
                 // A null component is rejected by every function.
                 // SAFETY: null components are checked by the FMU.
