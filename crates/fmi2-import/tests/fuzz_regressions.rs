@@ -123,3 +123,44 @@ fn a_declared_zip_bomb_is_refused_before_extraction() {
     assert!(matches!(err, ImportError::TooLarge { .. }), "{err}");
     assert!(err.to_string().contains("more than the limit of 2147483648 bytes"), "{err}");
 }
+
+/// A zip bomb that lies: 64 MiB of zeros whose directory and local header declare 1 000
+/// bytes. The zip reader stops at the declared size ("File is larger than its declared
+/// uncompressed size") and the archive is refused, naming the entry's file.
+#[test]
+fn a_zip_entry_inflating_past_its_declared_size_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("liar.fmu");
+    let mut zip = zip::ZipWriter::new(File::create(&path).unwrap());
+    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    zip.start_file("modelDescription.xml", opts).unwrap();
+    zip.write_all(MINI.as_bytes()).unwrap();
+    zip.start_file("resources/zeros.bin", opts).unwrap();
+    zip.write_all(&vec![0u8; 64 << 20]).unwrap();
+    zip.finish().unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    // Patch the uncompressed size of the second entry in its local header (offset 22) and
+    // central directory record (offset 24).
+    let find_all = |sig: &[u8]| bytes.windows(4).enumerate().filter(|(_, w)| *w == sig).map(|(i, _)| i).collect::<Vec<_>>();
+    let local = find_all(b"PK\x03\x04")[1];
+    let central = find_all(b"PK\x01\x02")[1];
+    for at in [local + 22, central + 24] {
+        assert_eq!(u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()), 64 << 20);
+        bytes[at..at + 4].copy_from_slice(&1000u32.to_le_bytes());
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let err = Fmu::open(&path).unwrap_err().to_string();
+    assert!(err.contains("zeros.bin") && err.contains("larger than its declared"), "{err}");
+}
+
+/// A 32 MiB attribute (a model name) is read like any other: no quadratic blow-up.
+#[test]
+fn a_huge_attribute_is_read() {
+    let xml = MINI.replacen(r#"modelName="M""#, &format!(r#"modelName="{}""#, "x".repeat(32 << 20)), 1);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("modelDescription.xml"), xml).unwrap();
+    let t = std::time::Instant::now();
+    let fmu = Fmu::from_dir(dir.path()).unwrap();
+    assert_eq!(fmu.model_description().model_name.len(), 32 << 20);
+    assert!(t.elapsed().as_secs() < 10, "{:?}", t.elapsed());
+}
