@@ -175,8 +175,15 @@ pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
         return;
     }
     // SAFETY: `c` came from `Box::into_raw` in `fmi2Instantiate` and is freed once (FMI contract).
-    let boxed = unsafe { Box::from_raw(c.cast::<Instance>()) };
-    let _ = catch_unwind(AssertUnwindSafe(move || drop(boxed)));
+    let mut boxed = unsafe { Box::from_raw(c.cast::<Instance>()) };
+    let _ = catch_unwind(AssertUnwindSafe(move || {
+        for state in boxed.states.drain() {
+            // SAFETY: a live state this instance allocated with `Box::into_raw` (registered
+            // then, unregistered when freed), so freed exactly once.
+            drop(unsafe { Box::from_raw(state as *mut Snapshot) });
+        }
+        drop(boxed)
+    }));
 }
 
 /// `fmi2SetupExperiment`.
@@ -323,10 +330,15 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUst
             Ok(s) => s,
             Err(status) => return status,
         };
-        // SAFETY: a non-null `*state` is a state this FMU allocated and has not freed.
-        match unsafe { slot[0].cast::<Snapshot>().as_mut() } {
-            Some(existing) => *existing = snap,
-            None => slot[0] = Box::into_raw(Box::new(snap)).cast(),
+        if slot[0].is_null() {
+            let new = Box::into_raw(Box::new(snap));
+            inst.states.insert(new as usize);
+            slot[0] = new.cast();
+        } else if inst.states.contains(&(slot[0] as usize)) {
+            // SAFETY: a live state of this instance (registered), not aliased during the call.
+            unsafe { *slot[0].cast::<Snapshot>() = snap };
+        } else {
+            return not_a_state(inst, "fmi2GetFMUstate");
         }
         Status::Ok
     })
@@ -336,10 +348,12 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUst
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
     call(c, "fmi2SetFMUstate", |inst| {
-        // SAFETY: a non-null state was allocated by `fmi2GetFMUstate` or `fmi2DeSerializeFMUstate`.
-        match unsafe { state.cast::<Snapshot>().as_ref() } {
-            Some(snap) => inst.restore(snap),
-            None => null_error(inst, "fmi2SetFMUstate", "FMUstate"),
+        if state.is_null() {
+            return null_error(inst, "fmi2SetFMUstate", "FMUstate");
+        }
+        match snapshot_of(inst, state) {
+            Some(snap) => inst.restore(&snap),
+            None => not_a_state(inst, "fmi2SetFMUstate"),
         }
     })
 }
@@ -347,11 +361,15 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) 
 /// `fmi2FreeFMUstate`: frees `*state` and sets it to null.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    call(c, "fmi2FreeFMUstate", |_| {
+    call(c, "fmi2FreeFMUstate", |inst| {
         if let Some([slot]) = slice_mut(state, 1)
             && !slot.is_null()
         {
-            // SAFETY: allocated by this FMU with `Box::into_raw` and freed once (FMI contract).
+            if !inst.states.remove(&(*slot as usize)) {
+                return not_a_state(inst, "fmi2FreeFMUstate");
+            }
+            // SAFETY: allocated by this instance with `Box::into_raw` and just unregistered, so
+            // freed once.
             drop(unsafe { Box::from_raw(slot.cast::<Snapshot>()) });
             *slot = ptr::null_mut();
         }
@@ -359,9 +377,17 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
     })
 }
 
-fn snapshot_of<'a>(state: fmi2FMUstate) -> Option<&'a Snapshot> {
-    // SAFETY: a non-null state was allocated by this FMU and is not freed during the call.
-    unsafe { state.cast::<Snapshot>().as_ref() }
+/// A copy of the state behind `state` when it is a live state of `inst`.
+fn snapshot_of(inst: &Instance, state: fmi2FMUstate) -> Option<Snapshot> {
+    if !inst.states.contains(&(state as usize)) {
+        return None;
+    }
+    // SAFETY: registered: allocated by this instance and not freed.
+    unsafe { state.cast::<Snapshot>().as_ref() }.cloned()
+}
+
+fn not_a_state(inst: &mut Instance, func: &str) -> Status {
+    inst.unsupported(func, "FMUstate is not a live state of this instance (freed already, or another instance's)")
 }
 
 /// `fmi2SerializedFMUstateSize`.
@@ -369,10 +395,10 @@ fn snapshot_of<'a>(state: fmi2FMUstate) -> Option<&'a Snapshot> {
 pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
     const FUNC: &str = "fmi2SerializedFMUstateSize";
     call(c, FUNC, |inst| {
-        let (Some(snap), Some([size])) = (snapshot_of(state), slice_mut(size, 1)) else {
-            return null_error(inst, FUNC, "FMUstate or size");
+        let (Some(snap), Some([size])) = (snapshot_of(inst, state), slice_mut(size, 1)) else {
+            return null_error(inst, FUNC, "FMUstate (a live state of this instance) or size");
         };
-        match inst.serialize(FUNC, snap) {
+        match inst.serialize(FUNC, &snap) {
             Ok(bytes) => {
                 *size = bytes.len();
                 Status::Ok
@@ -387,10 +413,10 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, state: fmi
 pub unsafe extern "C" fn fmi2SerializeFMUstate(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize) -> fmi2Status {
     const FUNC: &str = "fmi2SerializeFMUstate";
     call(c, FUNC, |inst| {
-        let (Some(snap), Some(out)) = (snapshot_of(state), slice_mut(bytes.cast::<u8>(), size)) else {
-            return null_error(inst, FUNC, "FMUstate or serializedState");
+        let (Some(snap), Some(out)) = (snapshot_of(inst, state), slice_mut(bytes.cast::<u8>(), size)) else {
+            return null_error(inst, FUNC, "FMUstate (a live state of this instance) or serializedState");
         };
-        match inst.serialize(FUNC, snap) {
+        match inst.serialize(FUNC, &snap) {
             Ok(data) if data.len() == size => {
                 out.copy_from_slice(&data);
                 Status::Ok
@@ -416,7 +442,9 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
         };
         match inst.deserialize(data) {
             Ok(snap) => {
-                *slot = Box::into_raw(Box::new(snap)).cast();
+                let new = Box::into_raw(Box::new(snap));
+                inst.states.insert(new as usize);
+                *slot = new.cast();
                 Status::Ok
             }
             Err(s) => s,

@@ -74,7 +74,23 @@ pub struct Snapshot {
 }
 
 /// Tag in front of serialized states, so that foreign or stale bytes are rejected.
-const STATE_MAGIC: &[u8; 8] = b"BUCKST02";
+const STATE_MAGIC: &[u8; 8] = b"BUCKST03";
+
+/// Most switching periods one `fmi2DoStep` may cross (≈ 1 s of computing in switched mode).
+/// Without a bound, a step of 1e6 s or a huge `fs` restored from a state loops for hours: the
+/// host would see a hang, not an error (found by the hostile-host harness).
+pub const MAX_PERIODS_PER_STEP: f64 = 1e7;
+
+/// FNV-1a 64 of the serialized body, stored after it: postcard reads most bit flips of a
+/// state as other valid numbers (a NaN inductance, a phase past the period), so a corrupted
+/// state must be caught before it is decoded, not by the physics that then hangs or panics.
+fn checksum(bytes: &[u8]) -> [u8; 8] {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    h.to_le_bytes()
+}
 
 /// An FMU instance.
 pub struct Instance {
@@ -82,6 +98,11 @@ pub struct Instance {
     phase: Phase,
     logger: Logger,
     log_calls: bool,
+    /// Addresses of the FMU states this instance allocated and the host has not freed: freed
+    /// with the instance (FMI 2.0 `fmi2FreeInstance` frees all memory the FMU allocated; a host
+    /// that forgot them leaked, found by valgrind), and a pointer not in here is refused
+    /// instead of being dereferenced (a state freed twice or another instance's).
+    pub(crate) states: std::collections::HashSet<usize>,
 }
 
 impl Instance {
@@ -96,7 +117,13 @@ impl Instance {
             logger(Status::Error, "logStatusError", &msg);
             return Err(msg);
         }
-        Ok(Self { converter: default_converter(), phase: Phase::Instantiated, logger, log_calls: false })
+        Ok(Self {
+            converter: default_converter(),
+            phase: Phase::Instantiated,
+            logger,
+            log_calls: false,
+            states: Default::default(),
+        })
     }
 
     /// Current phase of the state machine.
@@ -280,6 +307,16 @@ impl Instance {
                 format!("currentCommunicationPoint {current_time} does not continue from the FMU time {own}"),
             );
         }
+        let periods = step * self.converter.params().fs;
+        if periods.is_nan() || periods > MAX_PERIODS_PER_STEP {
+            return self.error(
+                FUNC,
+                format!(
+                    "communicationStepSize {step} s spans {periods:e} switching periods, more than the \
+                     {MAX_PERIODS_PER_STEP:e} one call may take; split it into shorter steps"
+                ),
+            );
+        }
         self.converter.set_time(current_time);
         match self.converter.step(step) {
             Ok(()) => Status::Ok,
@@ -326,10 +363,11 @@ impl Instance {
     /// `fmi2SerializeFMUstate` (size and bytes).
     pub fn serialize(&mut self, func: &str, snapshot: &Snapshot) -> Result<Vec<u8>, Status> {
         self.enter(func, allowed::ANY_BUT_FATAL)?;
-        let mut bytes = STATE_MAGIC.to_vec();
+        let bytes = STATE_MAGIC.to_vec();
         match postcard::to_extend(snapshot, bytes) {
-            Ok(b) => {
-                bytes = b;
+            Ok(mut bytes) => {
+                let sum = checksum(&bytes[STATE_MAGIC.len()..]);
+                bytes.extend_from_slice(&sum);
                 Ok(bytes)
             }
             Err(e) => Err(self.error(func, format!("cannot serialize: {e}"))),
@@ -340,10 +378,23 @@ impl Instance {
     pub fn deserialize(&mut self, bytes: &[u8]) -> Result<Snapshot, Status> {
         const FUNC: &str = "fmi2DeSerializeFMUstate";
         self.enter(FUNC, allowed::ANY_BUT_FATAL)?;
-        let Some(body) = bytes.strip_prefix(STATE_MAGIC.as_slice()) else {
+        let Some(rest) = bytes.strip_prefix(STATE_MAGIC.as_slice()) else {
             return Err(self.error(FUNC, "the bytes are not a serialized state of this FMU"));
         };
-        postcard::from_bytes(body).map_err(|e| self.error(FUNC, format!("corrupt serialized state: {e}")))
+        let Some((body, sum)) = rest.split_last_chunk::<8>() else {
+            return Err(self.error(FUNC, format!("corrupt serialized state: {} bytes are too few", bytes.len())));
+        };
+        if checksum(body) != *sum {
+            return Err(self.error(FUNC, "corrupt serialized state: the checksum does not match (truncated or altered bytes)"));
+        }
+        let snapshot: Snapshot =
+            postcard::from_bytes(body).map_err(|e| self.error(FUNC, format!("corrupt serialized state: {e}")))?;
+        // A state that passes the checksum but holds out-of-range parameters (a crafted one) is
+        // refused like a bad fmi2SetReal.
+        if let Err(e) = snapshot.converter.params().validate() {
+            return Err(self.error(FUNC, format!("serialized state holds invalid parameters: {e}")));
+        }
+        Ok(snapshot)
     }
 }
 

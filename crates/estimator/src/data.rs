@@ -112,6 +112,11 @@ impl DataSet {
         if dt.is_nan() || dt <= 0.0 {
             return Err(data_err("`time` must increase"));
         }
+        // Finite times 1e308 apart have an infinite spacing, which the uniformity test below
+        // cannot judge (inf − inf is NaN) and no model can use (found by fuzzing).
+        if !dt.is_finite() || !(self.time[n - 1] - self.time[0]).is_finite() {
+            return Err(data_err(format!("`time` spans {:e} … {:e} s: the sample period is not a finite number", self.time[0], self.time[n - 1])));
+        }
         if let Some(i) = (1..n).find(|&i| ((self.time[i] - self.time[i - 1]) - dt).abs() > 1e-3 * dt) {
             return Err(data_err(format!(
                 "`time` is not uniform: row {} follows row {} by {:e} s, the mean spacing is {dt:e} s",
@@ -142,9 +147,10 @@ impl DataSet {
     /// resistance [Ω] from metadata `rload` or a constant `rload` column (see
     /// [`DataSet::rload`]); unknown columns ignored.
     pub fn read_csv(path: &Path) -> Result<DataSet, EstimatorError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| EstimatorError::Io { path: path.display().to_string(), source })?;
-        Self::parse_csv(&text).map_err(|e| data_err(format!("{}: {e}", path.display())))
+        let bytes = std::fs::read(path).map_err(|source| EstimatorError::Io { path: path.display().to_string(), source })?;
+        // "stream did not contain valid UTF-8" named neither the place nor the likely cause.
+        let text = decode(&bytes).map_err(|e| data_err(format!("{}: {e}", path.display())))?;
+        Self::parse_csv(text).map_err(|e| data_err(format!("{}: {e}", path.display())))
     }
 
     /// Parses CSV text (see [`DataSet::read_csv`]).
@@ -168,9 +174,15 @@ impl DataSet {
         // A load-resistance column must hold one value (the models take a fixed resistor): it
         // becomes the `rload` metadata, which it must agree with when both are given.
         let mut rload: Option<(f64, usize)> = None;
+        // The line of a record is the reader's, counted from the header row: blank lines and
+        // quoted cells spanning lines would shift a count of records (found by fuzzing).
+        let line_of = |pos: Option<&csv::Position>, fallback: usize| pos.map_or(fallback, |p| header_line - 1 + p.line() as usize);
         for (r, record) in reader.records().enumerate() {
-            let line = header_line + 1 + r;
-            let record = record.map_err(|e| data_err(format!("line {line}: {e}")))?;
+            let record = record.map_err(|e| {
+                let line = line_of(e.position(), header_line + 1 + r);
+                data_err(format!("line {line}: {e}"))
+            })?;
+            let line = line_of(record.position(), header_line + 1 + r);
             if let Some(idx) = rload_col {
                 let field = record.get(idx).unwrap_or("");
                 let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{RLOAD}` value {field:?} is not a number")))?;
@@ -261,6 +273,22 @@ impl DataSet {
         }
         out
     }
+}
+
+/// The text of a data file: UTF-8 (with or without a byte-order mark); anything else is an
+/// error naming the line and byte, and the encoding when its byte-order mark shows it.
+fn decode(bytes: &[u8]) -> Result<&str, String> {
+    if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+        return Err("the file is UTF-16 text (it starts with a UTF-16 byte-order mark); save it as UTF-8".into());
+    }
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        format!(
+            "line {line}: byte {at} (0x{:02x}) is not UTF-8; save the file as UTF-8 (Latin-1 `µ` or `°` are a common cause)",
+            bytes[at]
+        )
+    })
 }
 
 #[cfg(test)]

@@ -152,15 +152,44 @@ impl Fmu {
 
     /// `shown` is how error messages name the model description (inside the archive).
     fn read(root: PathBuf, temp: Option<TempDir>, shown: &Path) -> Result<Self, ImportError> {
-        let xml = match fs::read_to_string(root.join("modelDescription.xml")) {
+        let file = root.join("modelDescription.xml");
+        // The archive may hold up to MAX_TOTAL_SIZE; the description is parsed in memory, so it
+        // has a bound of its own (a 2 GB one would need several GB of RAM).
+        match fs::metadata(&file) {
+            Ok(meta) if meta.len() > MAX_MODEL_DESCRIPTION_SIZE => {
+                return Err(ImportError::TooLarge {
+                    path: shown.to_path_buf(),
+                    reason: format!("{} bytes, more than the limit of {MAX_MODEL_DESCRIPTION_SIZE} bytes for a modelDescription.xml", meta.len()),
+                });
+            }
+            _ => {}
+        }
+        let xml = match fs::read_to_string(&file) {
             Ok(xml) => xml,
             Err(e) if e.kind() == ErrorKind::NotFound => {
                 return Err(ImportError::MissingModelDescription { path: shown.to_path_buf() });
             }
             Err(source) => return Err(ImportError::Io { path: shown.to_path_buf(), source }),
         };
-        let description = ModelDescription::from_xml(&xml)
-            .map_err(|source| ImportError::ModelDescription { path: shown.to_path_buf(), source })?;
+        let description = match ModelDescription::from_xml(&xml) {
+            Ok(d) => d,
+            // An FMI 1.0 or 3.0 description fails the 2.0 structure first; say which version
+            // it is instead of "missing field `ModelStructure`".
+            Err(source) => match fmi2_schema::fmi_version_of(&xml) {
+                Some(found) if found != "2.0" => {
+                    return Err(ImportError::UnsupportedFmiVersion { path: shown.to_path_buf(), found });
+                }
+                _ => return Err(ImportError::ModelDescription { path: shown.to_path_buf(), source }),
+            },
+        };
+        let id = description.co_simulation.as_ref().map(|cs| cs.model_identifier.as_str());
+        if let Some(id) = id
+            && !is_file_stem(id)
+        {
+            // The binary is binaries/<platform>/<modelIdentifier>.so: a `/` or `..` in the
+            // identifier would load a library from outside the FMU (found by fuzzing).
+            return Err(ImportError::BadModelIdentifier { path: shown.to_path_buf(), identifier: id.to_owned() });
+        }
         if description.fmi_version != "2.0" {
             return Err(ImportError::UnsupportedFmiVersion {
                 path: shown.to_path_buf(),
@@ -277,6 +306,16 @@ impl Fmu {
         }
         Ok(InstanceSlot(Arc::clone(&self.folder)))
     }
+}
+
+/// Largest `modelDescription.xml` read (256 MiB; the largest FMUs we know have tens of MB).
+pub const MAX_MODEL_DESCRIPTION_SIZE: u64 = 256 << 20;
+
+/// Whether `id` can name a file in `binaries/<platform>/`: not empty, not `.`/`..`, no path
+/// separator, NUL or control character. (FMI 2.0 wants a C identifier; this is what safety
+/// needs, so unusual but harmless identifiers still load.)
+fn is_file_stem(id: &str) -> bool {
+    !id.is_empty() && id != "." && id != ".." && !id.chars().any(|c| c == '/' || c == '\\' || c.is_control())
 }
 
 /// `file://` URI of an absolute path, percent-encoding what RFC 3986 does not allow in a path.

@@ -45,7 +45,7 @@ use std::path::PathBuf;
 pub use archive::{MAX_ENTRIES, MAX_TOTAL_SIZE};
 pub use callbacks::{LogCallback, LogMessage};
 pub use fmi2_schema as schema;
-pub use fmu::{Fmu, InstantiateOptions, VarKind};
+pub use fmu::{Fmu, InstantiateOptions, MAX_MODEL_DESCRIPTION_SIZE, VarKind};
 pub use instance::{FmuState, Instance};
 pub use python::LIBPYTHON_ENV;
 pub use value::{Value, Variable};
@@ -76,13 +76,22 @@ pub enum ImportError {
         /// The entry name as stored in the archive.
         entry: String,
     },
-    /// The archive exceeds [`MAX_ENTRIES`] or [`MAX_TOTAL_SIZE`].
+    /// The archive exceeds [`MAX_ENTRIES`] or [`MAX_TOTAL_SIZE`], or its description
+    /// [`MAX_MODEL_DESCRIPTION_SIZE`].
     #[error("FMU archive {path} is too large to extract: {reason}")]
     TooLarge {
         /// The archive.
         path: PathBuf,
         /// Which limit was hit.
         reason: String,
+    },
+    /// The `modelIdentifier` cannot name a binary inside the FMU (empty, `..`, a `/`).
+    #[error("{path}: modelIdentifier {identifier:?} is not a plain file name; refusing to load a binary from it")]
+    BadModelIdentifier {
+        /// The model description.
+        path: PathBuf,
+        /// The declared identifier.
+        identifier: String,
     },
     /// The FMU has no `modelDescription.xml` at its root.
     #[error("{path} does not exist: the FMU has no modelDescription.xml at its root")]

@@ -30,6 +30,10 @@ pub enum SchemaError {
     /// The XML is malformed or does not have the FMI 2.0 structure.
     #[error("modelDescription.xml is not valid FMI 2.0: {0}")]
     Parse(#[from] quick_xml::DeError),
+    /// The XML parser panicked on malformed input (quick-xml 0.38 does on a `<!DOCTYPE>` between
+    /// two runs of text in an element, tafia/quick-xml#964); the panic is caught and reported.
+    #[error("modelDescription.xml is not valid FMI 2.0: the XML parser failed on malformed input ({0})")]
+    ParserPanic(String),
     /// Serialization failed.
     #[error("cannot write modelDescription.xml: {0}")]
     Write(#[from] quick_xml::SeError),

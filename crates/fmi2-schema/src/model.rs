@@ -379,10 +379,40 @@ pub struct Unknown {
     pub dependencies: Option<String>,
 }
 
+/// The root element's `fmiVersion` attribute, read without the FMI 2.0 structure: tells an
+/// FMI 1.0 or 3.0 file (which [`ModelDescription::from_xml`] cannot read) from a broken 2.0 one.
+///
+/// ```
+/// let v = fmi2_schema::fmi_version_of(r#"<fmiModelDescription fmiVersion="3.0"><ModelVariables/></fmiModelDescription>"#);
+/// assert_eq!(v.as_deref(), Some("3.0"));
+/// ```
+pub fn fmi_version_of(xml: &str) -> Option<String> {
+    #[derive(Deserialize)]
+    struct Root {
+        #[serde(rename = "@fmiVersion")]
+        fmi_version: String,
+    }
+    guarded(|| quick_xml::de::from_str::<Root>(xml).map_err(SchemaError::from)).ok().map(|r| r.fmi_version)
+}
+
+/// Runs a quick-xml deserialization, turning a panic inside the parser into an error: a
+/// hostile modelDescription.xml must not take the importer's process down (found by fuzzing:
+/// `fuzz/regressions/model_description/quick-xml-doctype-in-text-panic.xml`).
+fn guarded<T>(parse: impl FnOnce() -> Result<T, SchemaError> + std::panic::UnwindSafe) -> Result<T, SchemaError> {
+    std::panic::catch_unwind(parse).unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "panic".to_owned());
+        Err(SchemaError::ParserPanic(what))
+    })
+}
+
 impl ModelDescription {
     /// Parses a `modelDescription.xml` document.
     pub fn from_xml(xml: &str) -> Result<Self, SchemaError> {
-        Ok(quick_xml::de::from_str(xml)?)
+        guarded(|| Ok(quick_xml::de::from_str(xml)?))
     }
 
     /// Writes the document with an XML declaration and two-space indentation.

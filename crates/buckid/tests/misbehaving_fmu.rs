@@ -1,0 +1,79 @@
+//! `buckid identify --fmu` against FMUs that misbehave on purpose: a small C FMU
+//! (`tests/fixtures/misbehaving/fmu.c`) compiled here with `cc` in one variant per failure,
+//! packaged with Python's `zipfile`. Each run must exit non-zero with an error naming the
+//! function and what the FMU logged. A segfault inside the FMU's own code takes the process
+//! down: the importer loads the binary into its process (as every FMI importer does) and cannot
+//! catch it; the test pins that down so the README's statement stays true.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::os::unix::process::ExitStatusExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use fmu_fixture::root;
+
+/// Builds the variant `define` (or the well-behaved FMU for `None`) into `dir/<name>.fmu`.
+fn build(dir: &Path, define: Option<&str>) -> PathBuf {
+    let src = root().join("tests/fixtures/misbehaving");
+    let name = define.unwrap_or("GOOD");
+    let so = dir.join(format!("{name}.so"));
+    let mut cc = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()));
+    cc.args(["-shared", "-fPIC", "-O1", "-Wall", "-Wextra", "-Werror", "-o"]).arg(&so).arg(src.join("fmu.c")).arg("-lm");
+    if let Some(d) = define {
+        cc.arg(format!("-D{d}"));
+    }
+    let out = cc.output().expect("run cc");
+    assert!(out.status.success(), "cc: {}", String::from_utf8_lossy(&out.stderr));
+    let fmu = dir.join(format!("{name}.fmu"));
+    let zip = Command::new("python3")
+        .arg("-c")
+        .arg(
+            "import sys, zipfile\n\
+             with zipfile.ZipFile(sys.argv[1], 'w', zipfile.ZIP_DEFLATED) as z:\n\
+             \x20   z.write(sys.argv[2], 'modelDescription.xml')\n\
+             \x20   z.write(sys.argv[3], 'binaries/linux64/Misbehaving.so')\n",
+        )
+        .arg(&fmu)
+        .arg(src.join("modelDescription.xml"))
+        .arg(&so)
+        .output()
+        .expect("run python3");
+    assert!(zip.status.success(), "zip: {}", String::from_utf8_lossy(&zip.stderr));
+    fmu
+}
+
+fn identify(fmu: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_buckid"))
+        .args(["identify", "--fmu"])
+        .arg(fmu)
+        .args(["--samples", "200"])
+        .output()
+        .expect("run buckid")
+}
+
+#[test]
+fn misbehaving_fmus_are_reported_by_function_and_exit_non_zero() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cases = [
+        ("NULL_INSTANTIATE", vec!["fmi2Instantiate(\"buckid\") returned null", "license check failed"]),
+        ("DOSTEP_ERROR", vec!["fmi2DoStep returned fmi2Error", "solver diverged at step 10"]),
+        ("NO_DOSTEP", vec!["does not export the required function fmi2DoStep"]),
+        ("WRONG_VERSION", vec!["fmi2GetVersion returned \"3.0\", expected \"2.0\""]),
+        ("NAN_OUTPUT", vec!["not finite"]),
+    ];
+    for (define, needles) in cases {
+        let out = identify(&build(tmp.path(), Some(define)));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{define}: {}\n{stderr}", out.status);
+        for needle in needles {
+            assert!(stderr.contains(needle), "{define}: stderr lacks {needle:?}:\n{stderr}");
+        }
+    }
+}
+
+#[test]
+fn a_segfaulting_fmu_takes_the_process_down_with_sigsegv() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = identify(&build(tmp.path(), Some("SEGFAULT_DOSTEP")));
+    assert_eq!(out.status.signal(), Some(11), "{}: {}", out.status, String::from_utf8_lossy(&out.stderr));
+}
