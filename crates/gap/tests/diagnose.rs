@@ -311,3 +311,20 @@ fn a_late_reading_does_not_hide_a_load_esr() {
     let (est, [lo, hi], _) = dx.final_cl();
     assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
 }
+
+/// A 25 mΩ series resistance, which closes vout's gap by itself, and a reading 30 ns late
+/// (one substep of 100), which vout alone cannot tell from a slightly different Cl: the late
+/// reading is still found on top of the resistance, in il, and Cl lands in its interval.
+#[test]
+fn a_late_reading_is_found_behind_a_series_resistance() {
+    let cl = 10e-6;
+    let d = read_late(Params { cl, switch_resistance: 25e-3, ..Params::default() }, 1);
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert!(names.contains(&"switch_resistance") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
+    let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap();
+    let truth = 0.01 / Params::default().fs;
+    assert!((late.params["sample_delay"] / truth - 1.0).abs() < 0.1, "sample delay {:e} vs {truth:e}", late.params["sample_delay"]);
+    let (est, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
+}
