@@ -265,6 +265,15 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     // then held (see the module doc).
     let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
     let (start, free_rest, logs, delay) = match pinned {
+        // The high-pass refit tests the rest of a model whose instant the output-error fit has
+        // pinned: it keeps that instant (held exactly, so without a variance of its own).
+        Some((i, _)) if criterion == Criterion::Differenced => {
+            let held = with_logs(start, free, &logs);
+            let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
+            let log_delay = logs[i];
+            let logs: Vec<f64> = logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
+            (held, rest, logs, Some((i, log_delay, 0.0, 0)))
+        }
         Some((i, weight)) => {
             let joint = minimize(start, free, logs, &estimation, criterion, Some(weight))?;
             let (_, cov) = noise_and_covariance(&joint, criterion, joint.r.len())?;
