@@ -20,7 +20,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, SIMULATED_EFFECTS, Trial, delayed, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{Baseline, ClMove, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -328,6 +328,64 @@ fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64
 /// in the data (so an averaged model may add it).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn forward(
+    data: &DataSet,
+    nominal: &Params,
+    first: &EffectFit,
+    switched_nominal: bool,
+    switched_data: bool,
+    n_est: usize,
+    holdout: f64,
+    baseline: &Baseline,
+) -> (Vec<EffectFit>, String) {
+    let (mut selected, ended) = forward_steps(data, nominal, first, switched_nominal, switched_data, n_est, holdout, baseline);
+    match backward(data, nominal, &mut selected, switched_nominal, n_est, holdout, baseline) {
+        Some(dropped) => (selected, format!("{ended}; then {dropped}")),
+        None => (selected, ended),
+    }
+}
+
+/// Most effects the backward step refits without (each costs a fit of the final model less one).
+const BACKWARD_TRIES: usize = 2;
+
+/// The backward step after the forward selection: an effect selected before others (so judged
+/// without them) that, given all the others, closes less than [`MATERIAL_SHARE`] of the gap
+/// they leave is dropped, and the last selected effect takes the refitted final model's values
+/// (a drift of L or a series resistance taken first may only have stood in for a late reading
+/// or a dead time found later). At most one drop; an effect found in il is kept (its evidence is
+/// not in vout). Returns what was dropped, and why.
+fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
+    let last = selected.last()?;
+    if selected.len() < 2 || baseline.floor.is_none() {
+        return None;
+    }
+    let (rms_all, cl) = (last.rms_after, last.cl.estimate);
+    let tries: Vec<usize> = (0..selected.len() - 1).filter(|&k| !selected[k].late_in_il() && selected[k].name != "switching_ripple").take(BACKWARD_TRIES).collect();
+    let without: Vec<(usize, f64, Candidate)> = tries
+        .par_iter()
+        .filter_map(|&k| {
+            let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
+            let stack = Stack::of(&others, nominal, cl, switched_nominal).ok()?;
+            let cand = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
+            let share = baseline.closed_of_material_gap(rms(&residual(&cand)), rms_all).unwrap_or(0.0);
+            Some((k, share, cand))
+        })
+        .collect();
+    let (k, share, cand) = without.into_iter().filter(|w| w.1 < MATERIAL_SHARE).min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let dropped = selected.remove(k);
+    let end = selected.last_mut()?;
+    end.residual = residual(&cand);
+    end.rms_after = rms(&end.residual);
+    end.nrmse_after = held_out_nrmse(&cand);
+    end.shrink_percent = baseline.shrink_percent(end.nrmse_after);
+    end.closed_percent = baseline.closed_percent(end.rms_after);
+    end.cl = ClMove::of(&cand, baseline.cl);
+    at_final_values(selected, &cand, nominal);
+    Some(format!("{} dropped: given the others it closes {share:.1} % of the gap they leave", dropped.name))
+}
+
+/// The forward steps of [`forward`].
+#[allow(clippy::too_many_arguments)]
+fn forward_steps(
     data: &DataSet,
     nominal: &Params,
     first: &EffectFit,

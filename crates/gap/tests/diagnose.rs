@@ -328,3 +328,17 @@ fn a_late_reading_is_found_behind_a_series_resistance() {
     let (est, [lo, hi], _) = dx.final_cl();
     assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
 }
+
+/// A 30 ns dead time (with its diodes) and a reading 150 ns late: both are found, nothing that
+/// only stands in for them (a drift of L), and Cl lands in its interval.
+#[test]
+fn a_dead_time_and_a_late_reading_are_both_found() {
+    let cl = 4.7e-6;
+    let d = read_late(Params { cl, dead_time: 30e-9, ..Params::default() }, 5);
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert!(names.contains(&"dead_time") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
+    assert!(!names.contains(&"param_drift"), "{names:?}: {}", dx.selection_ended);
+    let (est, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
+}
