@@ -265,42 +265,31 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     // then held (see the module doc).
     let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
     let (start, free_rest, logs, delay) = match pinned {
-        // The high-pass refit tests the rest of a model whose instant the output-error fit has
-        // pinned: it keeps that instant (held exactly, so without a variance of its own).
-        Some((i, _)) if criterion == Criterion::Differenced => {
+        Some((i, weight)) => {
+            // The high-pass refit tests the rest of a model whose instant the output-error fit
+            // has pinned: it keeps that instant (held exactly, so without a variance of its own).
+            let (logs, var, iterations) = if criterion == Criterion::Differenced {
+                (logs, 0.0, 0)
+            } else {
+                let joint = minimize(start, free, logs, &estimation, criterion, Some(weight))?;
+                let (_, cov) = noise_and_covariance(&joint, criterion)?;
+                (joint.logs, cov[(i, i)], joint.iterations)
+            };
             let held = with_logs(start, free, &logs);
             let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
-            let log_delay = logs[i];
-            let logs: Vec<f64> = logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
-            (held, rest, logs, Some((i, log_delay, 0.0, 0)))
-        }
-        Some((i, weight)) => {
-            let joint = minimize(start, free, logs, &estimation, criterion, Some(weight))?;
-            let (_, cov) = noise_and_covariance(&joint, criterion, joint.r.len())?;
-            let held = with_logs(start, free, &joint.logs);
-            let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
-            let logs: Vec<f64> = joint.logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
-            (held, rest, logs, Some((i, joint.logs[i], cov[(i, i)], joint.iterations)))
+            let rest_logs: Vec<f64> = logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
+            (held, rest, rest_logs, Some((i, logs[i], var, iterations)))
         }
         None => (*start, free.to_vec(), logs, None),
     };
     let m = minimize(&start, &free_rest, logs, &estimation, criterion, None)?;
-    let (s2, rest_covariance) = noise_and_covariance(&m, criterion, m.r.len())?;
+    let (s2, rest_covariance) = noise_and_covariance(&m, criterion)?;
     // The estimates and covariance in the order of `free` (then v0); the held delay with its
     // variance from the joint fit, uncorrelated with the rest.
     let (covariance, logs) = match delay {
         Some((i, log_delay, var, _)) => {
-            let n = m.logs.len() + 1;
-            let index = |k: usize| match k.cmp(&i) {
-                std::cmp::Ordering::Less => Some(k),
-                std::cmp::Ordering::Equal => None,
-                std::cmp::Ordering::Greater => Some(k - 1),
-            };
-            let covariance = DMatrix::from_fn(n, n, |r, c| match (index(r), index(c)) {
-                (Some(r), Some(c)) => rest_covariance[(r, c)],
-                (None, None) => var,
-                _ => 0.0,
-            });
+            let mut covariance = rest_covariance.insert_column(i, 0.0).insert_row(i, 0.0);
+            covariance[(i, i)] = var;
             let mut logs = m.logs.clone();
             logs.insert(i, log_delay);
             (covariance, logs)
@@ -406,15 +395,12 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
     Ok(Minimum { logs, r, j, cost, iterations, converged })
 }
 
-/// The sensor-noise variance of the first `n_vout` residuals (vout's) and the covariance of the
-/// unknowns at a minimum.
-fn noise_and_covariance(m: &Minimum, criterion: Criterion, n_vout: usize) -> Result<(f64, DMatrix<f64>), EstimatorError> {
-    let np = m.logs.len();
-    let dof = (m.r.len() - np) as f64;
-    let vout_ms = m.r.rows(0, n_vout).norm_squared() / (n_vout as f64 - np as f64).max(1.0);
+/// The sensor-noise variance (in vout's units) and the covariance of the unknowns at a minimum.
+fn noise_and_covariance(m: &Minimum, criterion: Criterion) -> Result<(f64, DMatrix<f64>), EstimatorError> {
+    let ms = m.cost / (m.r.len() - m.logs.len()) as f64;
     match criterion {
-        Criterion::OutputError => Ok((vout_ms, pem::covariance(m.j.transpose() * &m.j, m.cost / dof)?)),
-        Criterion::Differenced => Ok((vout_ms / 2.0, differenced_covariance(&m.j, m.cost / dof)?.1)),
+        Criterion::OutputError => Ok((ms, pem::covariance(m.j.transpose() * &m.j, ms)?)),
+        Criterion::Differenced => differenced_covariance(&m.j, ms),
     }
 }
 

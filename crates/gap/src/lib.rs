@@ -160,11 +160,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // taken, and every circuit effect is then tested on top of it.
     let late_in_il = effects.iter().find(|e| e.late_in_il());
     let first = late_in_il.or_else(|| select::best_material(effects.iter(), |e| e));
-    let (mut selected, selection_ended) = match first {
+    let (mut selected, mut selection_ended) = match first {
         Some(first) if first.finding => select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
         None => (Vec::new(), "no effect is a finding".to_string()),
     };
+    if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
+        selection_ended = format!("{selection_ended}; then {dropped}");
+    }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the interval to report, the test, or

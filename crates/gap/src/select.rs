@@ -321,29 +321,6 @@ fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64
     promising.into_iter().take(SCREEN_KEEP).map(|(_, x)| x).collect()
 }
 
-/// Forward selection from the first finding `first`: the findings in the order they were
-/// added, and why the sequence ended.
-///
-/// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
-/// in the data (so an averaged model may add it).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn forward(
-    data: &DataSet,
-    nominal: &Params,
-    first: &EffectFit,
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> (Vec<EffectFit>, String) {
-    let (mut selected, ended) = forward_steps(data, nominal, first, switched_nominal, switched_data, n_est, holdout, baseline);
-    match backward(data, nominal, &mut selected, switched_nominal, n_est, holdout, baseline) {
-        Some(dropped) => (selected, format!("{ended}; then {dropped}")),
-        None => (selected, ended),
-    }
-}
-
 /// Most effects the backward step refits without (each costs a fit of the final model less one).
 const BACKWARD_TRIES: usize = 2;
 
@@ -353,7 +330,7 @@ const BACKWARD_TRIES: usize = 2;
 /// (a drift of L or a series resistance taken first may only have stood in for a late reading
 /// or a dead time found later). At most one drop; an effect found in il is kept (its evidence is
 /// not in vout). Returns what was dropped, and why.
-fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
+pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
     let last = selected.last()?;
     if selected.len() < 2 || baseline.floor.is_none() {
         return None;
@@ -383,9 +360,13 @@ fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, swi
     Some(format!("{} dropped: given the others it closes {share:.1} % of the gap they leave", dropped.name))
 }
 
-/// The forward steps of [`forward`].
+/// Forward selection from the first finding `first`: the findings in the order they were
+/// added, and why the sequence ended.
+///
+/// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
+/// in the data (so an averaged model may add it).
 #[allow(clippy::too_many_arguments)]
-fn forward_steps(
+pub(crate) fn forward(
     data: &DataSet,
     nominal: &Params,
     first: &EffectFit,

@@ -16,6 +16,11 @@ fn data(conv: Converter) -> DataSet {
     d
 }
 
+/// Diagnoses `d` against the design's nominal values and the switched nominal model.
+fn diagnose_switched(d: &DataSet) -> gap::Diagnosis {
+    diagnose(d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap()
+}
+
 fn plant(params: Params, mode: Mode) -> Converter {
     Converter::new(params, mode)
 }
@@ -95,7 +100,7 @@ fn capacitor_parasitics_are_found_behind_the_switching_ripple() {
     check(&data(c), &["switching_ripple", "load_esr"]);
     let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
     c.set(VarId::Esl, 1e-9).unwrap();
-    let dx = diagnose(&data(c), &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&data(c));
     let esl = dx.effects.iter().find(|e| e.name == "esl").unwrap();
     assert!(esl.significant && !esl.material, "{esl:?}");
     assert!((esl.params["esl"] / 1e-9 - 1.0).abs() < 0.2, "{:?}", esl.params);
@@ -144,7 +149,7 @@ fn two_effects_at_once_are_both_selected() {
     let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_seed: 11, io: 3.0, ..Experiment::default() };
     let mut d = run(&mut ModelPlant::with_converter_in_open_loop(c), &exp).unwrap();
     d.meta.retain(|k, _| k == "fs" || k == "U");
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["diode_drop", "switch_resistance"], "{}", dx.selection_ended);
     let vf = dx.selected[0].params["diode_drop"];
@@ -190,7 +195,7 @@ fn global_starts_find_a_large_series_resistance() {
     let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_seed: 11, io: 10.0, ..Experiment::default() };
     let mut d = run(&mut ModelPlant::with_converter_in_open_loop(c), &exp).unwrap();
     d.meta.retain(|k, _| k == "fs" || k == "U");
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     assert_eq!(dx.verdict, "switch_resistance");
     let r = dx.selected[0].params["switch_resistance"];
     assert!((r - 0.04).abs() < 0.002, "switch resistance {r}");
@@ -209,7 +214,7 @@ fn large_diode_drop_in_deep_dcm_is_found() {
     let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_seed: 11, io: 1.24, ..Experiment::default() };
     let mut d = run(&mut ModelPlant::with_converter_in_open_loop(c), &exp).unwrap();
     d.meta.retain(|k, _| k == "fs" || k == "U");
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     assert_eq!(dx.verdict, "diode_drop", "not tested: {:?}", dx.not_tested);
     let fit = &dx.selected[0];
     let (_, [lo, hi], _) = dx.final_cl();
@@ -283,7 +288,7 @@ fn late_sampling_is_sample_delay() {
     let d = read_late(Params { cl, ..Params::default() }, late);
     let period = 1.0 / Params::default().fs;
     let substeps = 100;
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
     let delay = dx.selected[0].params["sample_delay"];
@@ -302,7 +307,7 @@ fn late_sampling_is_sample_delay() {
 fn a_late_reading_does_not_hide_a_load_esr() {
     let (cl, esr) = (2.2e-6, 20e-3);
     let d = read_late(Params { cl, load_esr: esr, ..Params::default() }, 5);
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert!(names.contains(&"sample_delay") && names.contains(&"load_esr"), "{names:?}: {}", dx.selection_ended);
     let fit = dx.selected.iter().find(|e| e.name == "load_esr").unwrap();
@@ -319,7 +324,7 @@ fn a_late_reading_does_not_hide_a_load_esr() {
 fn a_late_reading_is_found_behind_a_series_resistance() {
     let cl = 10e-6;
     let d = read_late(Params { cl, switch_resistance: 25e-3, ..Params::default() }, 1);
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert!(names.contains(&"switch_resistance") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
     let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap();
@@ -335,7 +340,7 @@ fn a_late_reading_is_found_behind_a_series_resistance() {
 fn a_dead_time_and_a_late_reading_are_both_found() {
     let cl = 4.7e-6;
     let d = read_late(Params { cl, dead_time: 30e-9, ..Params::default() }, 5);
-    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap();
+    let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert!(names.contains(&"dead_time") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
     assert!(!names.contains(&"param_drift"), "{names:?}: {}", dx.selection_ended);
