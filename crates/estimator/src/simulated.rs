@@ -136,7 +136,7 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
 /// Weight of the measured `il` against `vout` (`σ_vout / σ_il`, each the white noise of its
 /// channel, at least [`NOISE_RESOLUTION`] of its range), or `None` when the data has no `il` or
 /// its noise cannot be told from the data.
-pub fn il_weight(data: &DataSet) -> Option<f64> {
+fn il_weight(data: &DataSet) -> Option<f64> {
     let il = data.il.as_ref()?;
     let sigma = |series: &[f64]| -> Option<f64> {
         let (white, _) = crate::noise::white_noise(data, series)?;

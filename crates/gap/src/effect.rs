@@ -207,7 +207,7 @@ pub(crate) fn il_misses_materially(data: &DataSet, p: &Params, n_est: usize) -> 
 /// from `n_est`) that the late-reading model `late` closes against the model `nominal` [%];
 /// `None` without `il`, without a floor for it, when `nominal` does not miss it materially, or
 /// when the late reading leaves more than [`IL_LEFT_FLOORS`] floors of it.
-pub(crate) fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: usize) -> Option<f64> {
+fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: usize) -> Option<f64> {
     let (before, floor, floor_samples) = il_residual(data, nominal, n_est)?;
     let (after, ..) = il_residual(data, late, n_est)?;
     let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
