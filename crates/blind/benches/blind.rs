@@ -4,8 +4,10 @@
 //! told; prints, per source, the confusion matrix, the targets and the diagnosis time.
 //!
 //! `cargo bench -p blind -- [--per-effect N] [--seed S] [--spice-per-effect M] [--no-spice]
-//! [--harness-per-effect K] [--harness-adc-delay LO,HI]` (0 turns a source off; the harness's
-//! ADC delay range in seconds, default 20e-9,300e-9)
+//! [--harness-per-effect K] [--harness-adc-delay LO,HI] [--only I,J,…] [--keep DIR]` (0 turns
+//! a source off; the harness's ADC delay range in seconds, default 20e-9,300e-9; `--only` runs
+//! just the listed dataset numbers of the progress lines, same draws; `--keep` writes each
+//! diagnosed dataset to `DIR/NNN-label.csv`, for `buckid diagnose`)
 //!
 //! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
 //! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of
@@ -21,6 +23,38 @@ fn arg(name: &str) -> Option<String> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned()
 }
 
+/// Whether dataset `index` is to run (`--only`), and the diagnosis of `case` with its data kept
+/// (`--keep`).
+struct Selection {
+    only: Option<Vec<u64>>,
+    keep: Option<std::path::PathBuf>,
+}
+
+impl Selection {
+    fn from_args() -> Self {
+        let only = arg("--only").map(|s| s.split(',').map(|x| x.trim().parse().expect("--only I,J,…")).collect());
+        let keep = arg("--keep").map(std::path::PathBuf::from);
+        if let Some(dir) = &keep {
+            std::fs::create_dir_all(dir).expect("--keep DIR: cannot create");
+        }
+        Self { only, keep }
+    }
+
+    fn runs(&self, index: u64) -> bool {
+        self.only.as_ref().is_none_or(|o| o.contains(&index))
+    }
+
+    fn diagnose(&self, index: u64, case: &blind::Case) -> Outcome {
+        if let Some(dir) = &self.keep {
+            let path = dir.join(format!("{index:03}-{}-{}.csv", case.source, case.truth.label().replace('+', "-")));
+            case.data.write_csv(&path).expect("--keep: cannot write");
+        }
+        let o = diagnose_case(case);
+        progress(index, &o);
+        o
+    }
+}
+
 fn percent(a: usize, b: usize) -> String {
     if b == 0 { "–".into() } else { format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64) }
 }
@@ -34,7 +68,11 @@ fn floor_error_percent(o: &Outcome) -> Option<f64> {
 fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
     let check = o.cl_check.as_ref().map_or_else(String::new, |c| format!(", Cl test H {:.1}{}", c.hausman, if c.consistent { "" } else { " (widened)" }));
-    eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}", index, o.source, o.truth.label(), o.said(), o.seconds);
+    let cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| {
+        let inside = if o.final_cl_in_ci95() == Some(true) { "" } else { " MISSED" };
+        format!(", Cl {:.4} [{:.4}, {:.4}] µF (true {:.4}{inside})", cl * 1e6, lo * 1e6, hi * 1e6, o.true_cl * 1e6)
+    });
+    eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}{cl}", index, o.source, o.truth.label(), o.said(), o.seconds);
 }
 
 /// A truth's settings, three significant digits each.
@@ -93,19 +131,19 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     let with_effect = |o: &&Outcome| !o.truth.effects().is_empty() && o.hit();
     for o in part.iter().filter(with_effect).filter(|o| !o.closed_percent.is_some_and(|c| c >= 70.0)) {
         let closed = o.closed_percent.map_or_else(|| "no gap above the noise".to_string(), |c| format!("closed {c:.0} % of the gap above the noise"));
-        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A; {})", o.truth.label(), o.truth.cl * 1e6, o.truth.io, settings(o));
+        println!("- {}: named, {closed} (Cl {:.2} µF, io {:.2} A; {})", o.truth.label(), o.true_cl * 1e6, o.truth.io, settings(o));
     }
     for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
             "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
             o.truth.label(),
-            o.truth.cl * 1e6,
+            o.true_cl * 1e6,
             cl * 1e6,
             lo * 1e6,
             hi * 1e6,
-            100.0 * (cl / o.truth.cl - 1.0),
-            (cl - o.truth.cl).abs() / (0.5 * (hi - lo)),
+            100.0 * (cl / o.true_cl - 1.0),
+            (cl - o.true_cl).abs() / (0.5 * (hi - lo)),
             o.truth.io,
             settings(o)
         );
@@ -117,7 +155,7 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
             "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})",
             o.truth.label(),
             o.said(),
-            o.truth.cl * 1e6,
+            o.true_cl * 1e6,
             o.truth.io,
             settings(o)
         );
@@ -134,6 +172,7 @@ fn main() {
     });
     let seed: u64 = arg("--seed").map_or(2026, |s| s.parse().expect("--seed S"));
     let no_spice = std::env::args().any(|a| a == "--no-spice");
+    let selection = Selection::from_args();
     let root = fmu_fixture::root();
     let mut outcomes: Vec<Outcome> = Vec::new();
     let mut index = 0u64;
@@ -146,11 +185,12 @@ fn main() {
         for _ in 0..per_effect {
             for effect in plant_effects() {
                 index += 1;
+                if !selection.runs(index) {
+                    continue;
+                }
                 let mut r = rng(seed, index);
                 let case = plant_case(draw(effect, &mut r), seed ^ index, fmu.as_deref()).expect("plant dataset");
-                let o = diagnose_case(&case);
-                progress(index, &o);
-                outcomes.push(o);
+                outcomes.push(selection.diagnose(index, &case));
             }
         }
     }
@@ -162,11 +202,12 @@ fn main() {
         for _ in 0..spice_per_effect {
             for effect in SPICE_EFFECTS {
                 index += 1;
+                if !selection.runs(index) {
+                    continue;
+                }
                 let mut r = rng(seed, index);
                 let case = spice_case(draw(effect, &mut r), seed ^ index, spice).expect("ngspice dataset");
-                let o = diagnose_case(&case);
-                progress(index, &o);
-                outcomes.push(o);
+                outcomes.push(selection.diagnose(index, &case));
             }
         }
     }
@@ -181,13 +222,12 @@ fn main() {
             for (i, (effect, also)) in HARNESS_CASES.iter().enumerate() {
                 let hindex = 1_000_000 + (round * HARNESS_CASES.len() + i) as u64;
                 index += 1;
+                if !selection.runs(index) {
+                    continue;
+                }
                 let truth = draw_harness(effect, *also, &ranges, &mut rng(seed, hindex));
                 match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
-                    Ok(case) => {
-                        let o = diagnose_case(&case);
-                        progress(index, &o);
-                        outcomes.push(o);
-                    }
+                    Ok(case) => outcomes.push(selection.diagnose(index, &case)),
                     Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
                 }
             }

@@ -89,6 +89,11 @@ pub struct Case {
     /// a twin without them was run (the harness: its late ADC leaves a gap of its own); else
     /// the gap the nominal model leaves decides detectability.
     pub effect_rms: Option<f64>,
+    /// The load capacitance the data shows, which the scores compare against [F]: `truth.cl`,
+    /// except for a DC-biased ceramic, whose small-signal capacitance at the mean of `vout` it
+    /// is (the value at 0 V is an extrapolation by a bias law, which data that never leaves
+    /// the operating point cannot tell; the diagnosis reports Cl there too).
+    pub true_cl: f64,
 }
 
 /// The effects a plant dataset may withhold: clean data (`none`) against a switched model, and
@@ -208,7 +213,8 @@ pub fn plant_case(truth: Truth, seed: u64, fmu: Option<&Path>) -> Result<Case, E
         }
     };
     let model = model_for(truth.effect);
-    Ok(Case { data: blind(data), nominal: Params::default(), model, truth, source: if fmu.is_some() { "fmu" } else { "in-process" }, effect_rms: None })
+    let true_cl = model_biased_cl(&truth, mean(&data.vout));
+    Ok(Case { data: blind(data), nominal: Params::default(), model, source: if fmu.is_some() { "fmu" } else { "in-process" }, true_cl, truth, effect_rms: None })
 }
 
 /// How to run the ngspice generator (`scripts/spice/buck_spice.py`).
@@ -290,7 +296,8 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     let noise = Normal::new(0.0, truth.noise).map_err(|e| EstimatorError::Config(e.to_string()))?;
     data.vout.iter_mut().for_each(|v| *v += noise.sample(&mut rng));
     let model = model_for(truth.effect);
-    Ok(Case { data: blind(data), nominal, model, truth, source: "ngspice", effect_rms: None })
+    let true_cl = model_biased_cl(&truth, mean(&data.vout));
+    Ok(Case { data: blind(data), nominal, model, source: "ngspice", true_cl, truth, effect_rms: None })
 }
 
 /// How to run the independent harness (`scripts/spice/harness/harness.py`): circuits written
@@ -456,7 +463,7 @@ fn harness_effect_keys(effect: &str) -> Option<&'static [&'static str]> {
 /// which the ADC's own gap would otherwise hide from the detection limit.
 pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) -> Result<Case, EstimatorError> {
     let dir = tempfile::tempdir().map_err(|e| EstimatorError::Io { path: "temporary directory".into(), source: e })?;
-    let run = |settings: &[(&'static str, f64)], file: &str| -> Result<DataSet, EstimatorError> {
+    let run = |cl: f64, settings: &[(&'static str, f64)], file: &str| -> Result<DataSet, EstimatorError> {
         let out = dir.path().join(file);
         let mut args: Vec<String> = vec![
             "--topology".into(),
@@ -466,7 +473,7 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
             "--seed".into(),
             (seed % 1_000_000_007).max(1).to_string(),
             "--cl".into(),
-            format!("{:e}", truth.cl),
+            format!("{cl:e}"),
             "--io".into(),
             format!("{}", truth.io),
             "--effects".into(),
@@ -488,19 +495,54 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
         }
         DataSet::read_csv(&out)
     };
-    let data = run(&truth.settings, "data.csv")?;
+    let data = run(truth.cl, &truth.settings, "data.csv")?;
+    let true_cl = harness_biased_cl(&truth, mean(&data.vout));
     let keys: Option<Vec<&str>> = truth.effects().iter().map(|e| harness_effect_keys(e)).collect::<Option<Vec<_>>>().map(|k| k.concat());
     let effect_rms = match keys.filter(|k| !k.is_empty()) {
         Some(keys) => {
             let settings: Vec<(&'static str, f64)> = truth.settings.iter().copied().filter(|(k, _)| !keys.contains(k)).collect();
-            let twin = run(&settings, "twin.csv")?;
+            // A biased ceramic's twin is the linear capacitor of its operating point: what is
+            // left is the bias's nonlinearity, the only part a fitted Cl cannot take up.
+            let twin = run(true_cl, &settings, "twin.csv")?;
             let start = data.len() - data.len() / 3;
             let d: Vec<f64> = data.vout[start..].iter().zip(&twin.vout[start..]).map(|(a, b)| a - b).collect();
             Some((d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt())
         }
         None => None,
     };
-    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness", effect_rms })
+    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness", effect_rms, true_cl })
+}
+
+fn mean(x: &[f64]) -> f64 {
+    x.iter().sum::<f64>() / x.len().max(1) as f64
+}
+
+/// The load capacitance at the voltage `v` under the model's DC-bias law (the FMU's and the
+/// own netlists', `cap_rated_voltage` 16 V unless set) [F]; `truth.cl` without a bias.
+fn model_biased_cl(truth: &Truth, v: f64) -> f64 {
+    let mut p = Params { cl: truth.cl, ..Params::default() };
+    for (key, value) in &truth.settings {
+        match *key {
+            "cap_dc_bias" => p.cap_dc_bias = *value,
+            "cap_rated_voltage" => p.cap_rated_voltage = *value,
+            _ => {}
+        }
+    }
+    p.cl_at(v)
+}
+
+/// The small-signal load capacitance at the voltage `v` under the harness's DC-bias law
+/// (`scripts/spice/harness/harness.py`: `Cl(v) = Cl/(1 + c·v/Vr)²`, `c = 1/√(1 − dcbias) − 1`)
+/// [F]; `truth.cl` without a bias.
+pub fn harness_biased_cl(truth: &Truth, v: f64) -> f64 {
+    let setting = |key: &str| truth.settings.iter().find(|(k, _)| *k == key).map(|(_, x)| *x);
+    match (setting("dcbias"), setting("vrated")) {
+        (Some(bias), Some(rated)) if bias > 0.0 => {
+            let c = 1.0 / (1.0 - bias).sqrt() - 1.0;
+            truth.cl / (1.0 + c * v / rated).powi(2)
+        }
+        _ => truth.cl,
+    }
 }
 
 /// The packaged FMU, rebuilt by `cargo xtask fmu` when missing or older than its sources
@@ -546,17 +588,19 @@ pub struct Outcome {
     pub final_cl: Option<(f64, [f64; 2])>,
     /// Wall time of the diagnosis [s].
     pub seconds: f64,
+    /// The load capacitance the data shows ([`Case::true_cl`]) [F].
+    pub true_cl: f64,
 }
 
 impl Outcome {
     /// Whether the true Cl lies in the verdict's CI95 (`None` without a verdict's Cl).
     pub fn cl_in_ci95(&self) -> Option<bool> {
-        self.cl.map(|(_, [lo, hi])| lo <= self.truth.cl && self.truth.cl <= hi)
+        self.cl.map(|(_, [lo, hi])| lo <= self.true_cl && self.true_cl <= hi)
     }
 
     /// Whether the true Cl lies in the final CI95 (`None` without one).
     pub fn final_cl_in_ci95(&self) -> Option<bool> {
-        self.final_cl.map(|(_, [lo, hi])| lo <= self.truth.cl && self.truth.cl <= hi)
+        self.final_cl.map(|(_, [lo, hi])| lo <= self.true_cl && self.true_cl <= hi)
     }
 
     /// Whether the diagnosis got the truth: a clean dataset called `none`, a one-effect dataset
@@ -613,6 +657,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         cl_check: None,
         final_cl: None,
         seconds,
+        true_cl: case.true_cl,
     };
     match result {
         Ok(dx) => {

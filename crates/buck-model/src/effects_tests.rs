@@ -302,6 +302,19 @@ fn inductor_saturation_matches_fine_integration() {
     compare_with_reference(p, 1.2, "inductor_saturation");
 }
 
+/// `cl` is the capacitance at `cl_reference_voltage` (0 V by default), the law's shape the same.
+#[test]
+fn cl_is_the_capacitance_at_its_reference_voltage() {
+    let zero = Params { cap_dc_bias: 0.6, cap_rated_voltage: 10.0, cl: 20e-6, ..Params::default() };
+    assert_eq!(zero.cl_at(0.0), 20e-6);
+    assert!((zero.cl_at(5.0) - 20e-6 * (1.0 - 0.6 * 0.25)).abs() < 1e-18);
+    let at_six = Params { cl: zero.cl_at(6.0), cl_reference_voltage: 6.0, ..zero };
+    for v in [0.0, 3.0, 6.0, 9.0, 12.0] {
+        assert!((at_six.cl_at(v) / zero.cl_at(v) - 1.0).abs() < 1e-12, "at {v} V");
+    }
+    assert!(Params { cl_reference_voltage: f64::NAN, ..zero }.validate().is_err());
+}
+
 #[test]
 fn cap_dc_bias_matches_fine_integration() {
     let p = Params { cap_dc_bias: 0.6, cap_rated_voltage: 10.0, cl: 20e-6, ..Params::default() };

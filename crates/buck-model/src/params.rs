@@ -46,10 +46,16 @@ pub struct Params {
     /// Saturation current of the inductor [A].
     pub isat: f64,
     /// `cap_dc_bias`: fraction of `Cl` lost at `cap_rated_voltage`:
-    /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)`, held at its rated-voltage value above it.
+    /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)`, held at its rated-voltage value above it
+    /// (`Cl` at `cl_reference_voltage`, scaled accordingly).
     pub cap_dc_bias: f64,
     /// Rated voltage of `Cl` for `cap_dc_bias` [V].
     pub cap_rated_voltage: f64,
+    /// Voltage at which `cl` is the load capacitance under `cap_dc_bias` [V]: 0 (the default)
+    /// makes `cl` the zero-bias value. Not an FMU parameter: a fit sets it to the data's mean
+    /// output so that the fitted `cl` is the capacitance the data shows, not an extrapolation
+    /// to 0 V that depends on the bias law.
+    pub cl_reference_voltage: f64,
     /// Load resistance from the output node `vout` to ground [Ω], drawing `vout/rload` beside
     /// the load current `io`; 0 means no resistor (the ideal current-load circuit, bit for bit).
     /// With `load_esr` it sits at the node, across the series `Cl` + ESR branch. Both modes.
@@ -83,6 +89,7 @@ impl Default for Params {
             isat: 10.0,
             cap_dc_bias: 0.0,
             cap_rated_voltage: 16.0,
+            cl_reference_voltage: 0.0,
             rload: 0.0,
             sample_delay: 0.0,
         }
@@ -127,6 +134,10 @@ impl Params {
             let var = by_vr(vr(id)).ok_or(ModelError::UnknownReference { vr: vr(id), kind: "Real" })?;
             var.check_real(value)?;
         }
+        // Above the rated voltage the law holds Cl flat, so a reference there is allowed.
+        if !(self.cl_reference_voltage.is_finite() && self.cl_reference_voltage >= 0.0) {
+            return Err(ModelError::OutOfRange { name: "cl_reference_voltage", value: self.cl_reference_voltage, range: "finite and ≥ 0 V".into() });
+        }
         Ok(())
     }
 
@@ -156,8 +167,8 @@ impl Params {
         if self.cap_dc_bias == 0.0 {
             return self.cl;
         }
-        let r = (v / self.cap_rated_voltage).powi(2).min(1.0);
-        self.cl * (1.0 - self.cap_dc_bias * r)
+        let kept = |v: f64| 1.0 - self.cap_dc_bias * (v / self.cap_rated_voltage).powi(2).min(1.0);
+        self.cl * kept(v) / kept(self.cl_reference_voltage)
     }
 
     /// Load capacitance held over a period under `cap_dc_bias` [F]: its value for the

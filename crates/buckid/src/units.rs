@@ -4,7 +4,7 @@
 /// The unit of an effect or circuit parameter by its contract name (`""` for a ratio).
 pub fn unit_of(name: &str) -> &'static str {
     match name {
-        "diode_drop" | "lsb" | "input_noise_rms" => "V",
+        "diode_drop" | "lsb" | "input_noise_rms" | "cap_rated_voltage" | "cl_reference_voltage" => "V",
         "dead_time" | "sample_delay" => "s",
         "switch_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",

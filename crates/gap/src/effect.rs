@@ -480,6 +480,11 @@ impl SimulatedEffect {
         if self.dcm {
             params.insert("dcm".to_string(), 1.0);
         }
+        // A bias law is read against the voltages it was fitted for (see `bias_reference`).
+        if self.extra.iter().any(|&(f, _)| f == Free::CapDcBias) {
+            params.insert("cap_rated_voltage".to_string(), cand.fit.params.cap_rated_voltage);
+            params.insert("cl_reference_voltage".to_string(), cand.fit.params.cl_reference_voltage);
+        }
         Ok((params, ci95))
     }
 }

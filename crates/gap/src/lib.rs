@@ -125,12 +125,29 @@ impl Diagnosis {
 
 }
 
+/// The nominal circuit with the `cap_dc_bias` candidate's law anchored to the data (unless the
+/// nominal carries a bias law of its own): its rated voltage at the highest `vout`, and Cl
+/// the capacitance at the mean `vout`. The data shows Cl and its slope over the voltages it
+/// visits, nothing else: anchored so, the fitted Cl is the capacitance the converter runs
+/// with, whatever law the part follows, and the law's bound (90 % lost at the rated
+/// voltage) spans any slope a real ceramic has over that range. A part's own rating would
+/// leave a 6 V operating point on the flat start of a 16 V law, the bias fit on its bound.
+fn bias_reference(nominal: &Params, data: &DataSet) -> Params {
+    let top = data.vout.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mean = data.vout.iter().sum::<f64>() / data.len().max(1) as f64;
+    if nominal.cap_dc_bias > 0.0 || !(top > 0.0 && mean > 0.0) {
+        return *nominal;
+    }
+    Params { cap_rated_voltage: top, cl_reference_voltage: mean.min(top), ..*nominal }
+}
+
 /// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
 ///
 /// A switched nominal is the sampled-data PWM model, linear in the state; where that cannot be
 /// fitted (e.g. deep DCM, far from any linear model) the plant simulator itself with Cl free
 /// stands in for it.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
+    let nominal = &bias_reference(nominal, data);
     let base = match identify(data, nominal, &nominal_options(opts)) {
         Err(_) if opts.nominal == Nominal::Switched => {
             identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?

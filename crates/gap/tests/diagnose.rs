@@ -347,3 +347,28 @@ fn a_dead_time_and_a_late_reading_are_both_found() {
     let (est, [lo, hi], _) = dx.final_cl();
     assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
 }
+
+/// A ceramic losing 60 % of 20 µF at a 10 V rating, run around 6 V: the data shows Cl and its
+/// slope over 4.8–7.2 V, not the part's rating. `cap_dc_bias` is found with its law anchored to
+/// the data (rated voltage at the highest vout), and Cl is reported, and lands in its CI95, as
+/// the capacitance at the mean vout (analytic: `Cl·(1 − b·(v/Vr)²)` of the plant's law).
+#[test]
+fn a_biased_ceramic_is_found_and_cl_is_its_value_at_the_operating_point() {
+    let p = Params { cl: 20e-6, cap_dc_bias: 0.6, cap_rated_voltage: 10.0, ..Params::default() };
+    let d = data(plant(p, Mode::Switched));
+    let dx = diagnose_switched(&d);
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["cap_dc_bias"], "{}", dx.selection_ended);
+    let fit = &dx.selected[0];
+    let top = d.vout.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mean = d.vout.iter().sum::<f64>() / d.len() as f64;
+    assert_eq!((fit.params["cap_rated_voltage"], fit.params["cl_reference_voltage"]), (top, mean));
+    // The same law seen from the data's top voltage: b·(top/10 V)² of Cl(0) lost there.
+    let loss_at_top = 0.6 * (top / 10.0).powi(2);
+    let b = fit.params["cap_dc_bias"];
+    assert!((b / loss_at_top - 1.0).abs() < 0.05, "cap_dc_bias {b} vs {loss_at_top}");
+    let at_mean = p.cl_at(mean);
+    let (cl, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= at_mean && at_mean <= hi, "Cl {cl:e} outside [{lo:e}, {hi:e}], true {at_mean:e} at {mean:.2} V");
+    assert!((at_mean / p.cl - 1.0).abs() > 0.15, "the operating point must be well into the bias");
+}
