@@ -155,6 +155,12 @@ pub struct EffectFit {
     /// could be and still hide in this data (see `limits`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ruled_out_above: Option<f64>,
+    /// For an effect added because Cl's interval test failed without it (see
+    /// `select::for_cl`): the Hausman statistic of the model before it, which with it passes.
+    /// Significant but closing too little of the gap to be material on `vout`, it is material
+    /// to Cl, the quantity the data is taken for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_test_failed_without: Option<f64>,
     /// Held-out simulation residual (for the noise floor).
     #[serde(skip)]
     pub residual: Vec<f64>,
@@ -166,6 +172,7 @@ impl EffectFit {
     pub fn standing(&self) -> &'static str {
         match (self.finding, self.significant, self.within_tolerance, self.material, self.identifiable) {
             (true, ..) if !self.material && self.il_closed_percent.is_some() => "finding (in il)",
+            (true, ..) if !self.material && self.cl_test_failed_without.is_some() => "finding (for Cl)",
             (true, ..) => "finding",
             _ if self.at_bound && self.significant => "ended on a bound",
             (false, true, true, ..) => "within tolerance",
@@ -226,9 +233,11 @@ impl EffectFit {
         self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound;
     }
 
-    /// A late reading found in the inductor current (and not on `vout`).
+    /// A late reading the inductor current shows by itself (whatever it does on `vout`: where
+    /// it is material there too, a vout-only effect such as an ESL may fit `vout` as well, and
+    /// only il tells them apart).
     pub(crate) fn late_in_il(&self) -> bool {
-        self.finding && !self.material && self.il_closed_percent.is_some()
+        self.finding && self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED)
     }
 }
 
@@ -588,6 +597,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
         il_closed_percent: None,
+        cl_test_failed_without: None,
         residual,
     };
     (fit, t.cand)

@@ -185,17 +185,28 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
         selection_ended = format!("{selection_ended}; then {dropped}");
     }
-    let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the interval to report, the test, or
     // why it was not made.
-    let test = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
-        let result = if switched { consistency::check(data, nominal, fits, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) };
-        match result {
-            Ok(check) => (check.ci95(), Some(check), None),
-            Err(reason) => (ci95, None, Some(reason)),
-        }
+    let check = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
+        if switched { consistency::check(data, nominal, fits, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) }
     };
+    let test = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| match check(fits, cl, ci95) {
+        Ok(check) => (check.ci95(), Some(check), None),
+        Err(reason) => (ci95, None, Some(reason)),
+    };
+    let final_test = |selected: &[EffectFit]| match selected.last() {
+        Some(last) => test(&selected.iter().collect::<Vec<_>>(), last.cl.estimate, last.cl.ci95),
+        None => test(&[], baseline.cl, base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1])),
+    };
+    let mut tested = final_test(&selected);
+    if let Some(failed) = tested.1.as_ref().filter(|c| !c.consistent)
+        && let Some(added) = select::for_cl(data, nominal, &mut selected, failed.hausman, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline, |f, cl, ci| check(f, cl, ci).ok())
+    {
+        selection_ended = format!("{selection_ended}; then {added}");
+        tested = final_test(&selected);
+    }
+    let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
     let (mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by) = (base_cl, None, None, None);
     // A final model that still misses materially above the floor leaves its error in the
@@ -205,17 +216,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let still_misses = |residual: &[f64], rms: f64| {
         baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
     };
-    if let Some((last, before)) = selected.split_last_mut() {
-        let mut fits: Vec<&EffectFit> = before.iter().collect();
-        fits.push(last);
-        let tested = test(&fits, last.cl.estimate, last.cl.ci95);
+    if let Some(last) = selected.last_mut() {
         (last.cl.ci95, last.cl.check, last.cl.check_skipped) = tested;
         if let Some(k) = still_misses(&last.residual, last.rms_after) {
             last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);
         }
     } else {
-        (cl_ci95, cl_check, cl_check_skipped) = test(&[], baseline.cl, base_cl);
+        (cl_ci95, cl_check, cl_check_skipped) = tested;
         if let Some(k) = still_misses(&residual, baseline.rms) {
             cl_ci95 = effect::widen(baseline.cl, cl_ci95, k);
             cl_widened_by = Some(k);
