@@ -352,8 +352,9 @@ fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64
     promising.into_iter().take(SCREEN_KEEP).map(|(_, x)| x).collect()
 }
 
-/// When Cl's interval test fails on the final model (the output-error and the high-pass fits
-/// disagree: something the model misses moves Cl, see `consistency`), the effect that makes
+/// When Cl's interval test fails on a final model that leaves `vout` within its noise floor
+/// (the output-error and the high-pass fits disagree: something the model misses moves Cl,
+/// see `consistency`), the effect that makes
 /// them agree is named: of the extensions that are significant on top of the final model (the
 /// screen with no share asked of the gap; fitted, identified, inside their range, no drift
 /// within tolerance) and move Cl by more than the tolerance, the one with the lowest Akaike
@@ -375,7 +376,10 @@ pub(crate) fn for_cl(
     baseline: &Baseline,
     test: impl Fn(&[&EffectFit], f64, [f64; 2]) -> Option<ClCheck> + Sync,
 ) -> Option<String> {
-    if selected.len() >= MAX_EFFECTS {
+    // Only where vout shows nothing more: a model that still misses materially has had its
+    // material effects tried, and what moves Cl there is the miss itself (widened for).
+    let rms_left = selected.last().map_or(baseline.rms, |e| e.rms_after);
+    if selected.len() >= MAX_EFFECTS || baseline.misses_materially(rms_left) != Some(false) {
         return None;
     }
     let cl = selected.last().map_or(baseline.cl, |e| e.cl.estimate);

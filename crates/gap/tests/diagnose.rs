@@ -372,3 +372,23 @@ fn a_biased_ceramic_is_found_and_cl_is_its_value_at_the_operating_point() {
     assert!(lo <= at_mean && at_mean <= hi, "Cl {cl:e} outside [{lo:e}, {hi:e}], true {at_mean:e} at {mean:.2} V");
     assert!((at_mean / p.cl - 1.0).abs() > 0.15, "the operating point must be well into the bias");
 }
+
+/// A 0.8 nH ESL beside Cl = 1.4 µF, read 3 substeps of 100 (91 ns) late: once il pins the late
+/// reading, what the ESL leaves on vout is within the noise floor, yet the output-error and
+/// high-pass fits of Cl disagree (Hausman ≈ 40). The ESL is named for Cl (significant, moving
+/// Cl by more than the tolerance, and the interval test passes with it), and Cl and the ESL
+/// land in their CI95 (without the step: sample_delay alone, Cl's interval widened).
+#[test]
+fn an_esl_hidden_in_the_noise_floor_is_found_through_cl() {
+    let (cl, esl) = (1.4e-6, 0.8e-9);
+    let d = read_late(Params { cl, esl, ..Params::default() }, 3);
+    let dx = diagnose_switched(&d);
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["sample_delay", "esl"], "{}", dx.selection_ended);
+    let fit = &dx.selected[1];
+    assert!(fit.cl_test_failed_without.is_some() && !fit.material, "{}", dx.selection_ended);
+    let [lo, hi] = fit.ci95["esl"];
+    assert!(lo <= esl && esl <= hi, "esl {:e} outside [{lo:e}, {hi:e}]", fit.params["esl"]);
+    let (est, [lo, hi], _) = dx.final_cl();
+    assert!(lo <= cl && cl <= hi, "Cl {est:e} outside [{lo:e}, {hi:e}]");
+}
