@@ -69,7 +69,11 @@ fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
     let check = o.cl_check.as_ref().map_or_else(String::new, |c| format!(", Cl test H {:.1}{}", c.hausman, if c.consistent { "" } else { " (widened)" }));
     let cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| {
-        let inside = if o.final_cl_in_ci95() == Some(true) { "" } else { " MISSED" };
+        let inside = match (o.final_cl_in_ci95(), estimator::validate::identified([lo, hi])) {
+            (Some(true), _) => "",
+            (_, false) => " NOT IDENTIFIED",
+            _ => " MISSED",
+        };
         format!(", Cl {:.4} [{:.4}, {:.4}] µF (true {:.4}{inside})", cl * 1e6, lo * 1e6, hi * 1e6, o.true_cl * 1e6)
     });
     eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}{cl}", index, o.source, o.truth.label(), o.said(), o.seconds);
@@ -105,8 +109,8 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
         percent(s.closed_70, s.with_gap),
         named - s.with_gap
     );
-    println!("| true Cl inside the verdict's CI95, of the named | {} |", percent(s.cl_covered, named));
-    println!("| true Cl inside the final CI95, of all (≥ 90 %) | {} |", percent(s.final_cl_covered, s.final_cl_cases));
+    println!("| true Cl inside the verdict's CI95 (identified), of the named | {} |", percent(s.cl_covered, named));
+    println!("| true Cl inside the final CI95 (identified), of all (≥ 90 %) | {} |", percent(s.final_cl_covered, s.final_cl_cases));
     if let (Some(mid), Some(max)) = (times.get(times.len() / 2), times.last()) {
         println!("| diagnosis time, {SAMPLES} samples (≤ 1 s) | median {mid:.2} s, max {max:.2} s |");
     }
@@ -136,9 +140,10 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
-            "- {}: named, true Cl {:.4} µF outside the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
+            "- {}: named, true Cl {:.4} µF {} the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
             o.truth.label(),
             o.true_cl * 1e6,
+            if estimator::validate::identified([lo, hi]) { "outside" } else { "not identified by" },
             cl * 1e6,
             lo * 1e6,
             hi * 1e6,

@@ -592,15 +592,23 @@ pub struct Outcome {
     pub true_cl: f64,
 }
 
+/// Whether `ci95` holds `truth` and is identified ([`estimator::validate::identified`]): an
+/// interval from zero to infinity holds every value and says nothing, so it scores a miss.
+fn covers(ci95: [f64; 2], truth: f64) -> bool {
+    estimator::validate::identified(ci95) && ci95[0] <= truth && truth <= ci95[1]
+}
+
 impl Outcome {
-    /// Whether the true Cl lies in the verdict's CI95 (`None` without a verdict's Cl).
+    /// Whether the true Cl lies in the verdict's CI95 and that interval pins Cl down (`None`
+    /// without a verdict's Cl).
     pub fn cl_in_ci95(&self) -> Option<bool> {
-        self.cl.map(|(_, [lo, hi])| lo <= self.true_cl && self.true_cl <= hi)
+        self.cl.map(|(_, ci95)| covers(ci95, self.true_cl))
     }
 
-    /// Whether the true Cl lies in the final CI95 (`None` without one).
+    /// Whether the true Cl lies in the final CI95 and that interval pins Cl down (`None`
+    /// without one).
     pub fn final_cl_in_ci95(&self) -> Option<bool> {
-        self.final_cl.map(|(_, [lo, hi])| lo <= self.true_cl && self.true_cl <= hi)
+        self.final_cl.map(|(_, ci95)| covers(ci95, self.true_cl))
     }
 
     /// Whether the diagnosis got the truth: a clean dataset called `none`, a one-effect dataset

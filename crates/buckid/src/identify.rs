@@ -10,9 +10,10 @@ use estimator::fmu_plant::{FmuOptions, FmuPlant};
 use estimator::identify::{Identification, IdentifyOptions, identify};
 use estimator::model::{Free, Sampling, Signal, Structure};
 use estimator::pem::NoiseModel;
+use estimator::validate::identified;
 use serde::Serialize;
 
-use crate::units::{identified, si, unit_of, with_ci};
+use crate::units::{si, unit_of, with_ci};
 use crate::{CircuitValue, IdentifyArgs, ModelChoice, NoiseChoice, SamplingChoice};
 
 /// Splits `NAME=VALUE`.

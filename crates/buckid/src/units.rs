@@ -1,6 +1,8 @@
 //! Numbers as an engineer reads them: SI prefixes, units, and intervals that say when they
 //! tell nothing.
 
+use estimator::validate::identified;
+
 /// The unit of an effect or circuit parameter by its contract name (`""` for a ratio).
 pub fn unit_of(name: &str) -> &'static str {
     match name {
@@ -113,11 +115,6 @@ fn significant(v: f64, digits: usize) -> String {
     let order = v.abs().log10().floor() as i32;
     let decimals = (digits as i32 - 1 - order).max(0) as usize;
     format!("{v:.decimals$}")
-}
-
-/// Whether an interval pins a positive quantity down: positive, finite, narrower than a decade.
-pub fn identified([lo, hi]: [f64; 2]) -> bool {
-    lo > 0.0 && hi.is_finite() && hi < 10.0 * lo
 }
 
 /// Digits that resolve an interval's half-width to about two significant digits.

@@ -12,6 +12,14 @@ pub const Z_99: f64 = 2.326_348;
 pub const Z_975: f64 = 1.959_964;
 /// Standard normal 95 % quantile: a one-sided 95 % bound in σ.
 pub const Z_95: f64 = 1.644_854;
+/// Widest ratio of a CI95's bounds for which a positive quantity counts as identified.
+pub const IDENTIFIABLE_SPAN: f64 = 10.0;
+
+/// Whether a CI95 pins a positive quantity down: positive, finite, narrower than a factor of
+/// [`IDENTIFIABLE_SPAN`] (a decade).
+pub fn identified([lo, hi]: [f64; 2]) -> bool {
+    lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo
+}
 
 /// `100·(1 − ‖y − ŷ‖/‖y − ȳ‖)`: 100 % is a perfect fit, 0 % no better than the mean.
 pub fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {

@@ -32,18 +32,9 @@ pub const EFFECTS: [&str; 13] = [
 /// (Burnham & Anderson: ΔAIC > 10 leaves essentially no support for the worse model).
 const AIC_MARGIN: f64 = 10.0;
 
-/// Widest ratio of a CI95's bounds for which a parameter counts as identified.
-pub const IDENTIFIABLE_SPAN: f64 = 10.0;
-
-/// Whether every interval of `ci95` is positive, finite and narrower than a factor of
-/// [`IDENTIFIABLE_SPAN`].
+/// Whether every interval of `ci95` is identified ([`estimator::validate::identified`]).
 fn identified(ci95: &BTreeMap<String, [f64; 2]>) -> bool {
-    ci95.values().all(|&c| identified_interval(c))
-}
-
-/// Whether one CI95 is positive, finite and narrower than a factor of [`IDENTIFIABLE_SPAN`].
-pub(crate) fn identified_interval([lo, hi]: [f64; 2]) -> bool {
-    lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo
+    ci95.values().all(|&c| estimator::validate::identified(c))
 }
 
 /// How Cl's estimate moved once the effect was added.
@@ -115,8 +106,8 @@ pub struct EffectFit {
     pub lr_statistic: Option<f64>,
     /// Its 99 % critical value.
     pub lr_limit: Option<f64>,
-    /// Every fitted parameter is pinned down by the data: its CI95 is positive and spans less
-    /// than a factor of [`IDENTIFIABLE_SPAN`]. An effect that is not (e.g. a saturation current
+    /// Every fitted parameter is pinned down by the data
+    /// ([`estimator::validate::identified`]). An effect that is not (e.g. a saturation current
     /// below every inductor current, which leaves a plain smaller L) cannot be claimed.
     pub identifiable: bool,
     /// Significant (LR test at 1 %, or ΔAIC < −10 for a non-nested or discrete change),
@@ -516,24 +507,46 @@ pub struct ClCheck {
     /// The two estimates agree; when not, the reported CI95 is the hull of both intervals
     /// widened by their distance on each side.
     pub consistent: bool,
+    /// The two agree and the high-pass fit is the more precise (the output-error fit has
+    /// settled where Cl barely shows in its criterion): its estimate and interval are reported.
+    pub high_pass_reported: bool,
+}
+
+/// Width of a CI95 in `ln` (infinite where it reaches zero or infinity).
+fn log_width([lo, hi]: [f64; 2]) -> f64 {
+    if lo > 0.0 { (hi / lo).ln() } else { f64::INFINITY }
 }
 
 impl ClCheck {
-    /// The CI95 to report: the model's own, or, when the estimates disagree, the hull of both
-    /// intervals widened by the estimates' distance on each side (in `ln Cl`).
-    pub fn ci95(&self) -> [f64; 2] {
+    /// The test's verdict on the two fits: consistent when the Hausman statistic is within its
+    /// limit, and then the more precise fit reported.
+    pub(crate) fn new(estimate: f64, model_ci95: [f64; 2], high_pass: f64, high_pass_ci95: [f64; 2], hausman: f64, limit: f64) -> Self {
+        let consistent = hausman.is_finite() && hausman <= limit;
+        let high_pass_reported = consistent && log_width(high_pass_ci95) < log_width(model_ci95);
+        Self { estimate, high_pass, high_pass_ci95, model_ci95, hausman, limit, consistent, high_pass_reported }
+    }
+
+    /// The estimate and CI95 to report: of two fits that agree, the more precise one's; when
+    /// they disagree, the output-error estimate with the hull of both intervals widened by the
+    /// estimates' distance on each side (in `ln Cl`).
+    pub fn reported(&self) -> (f64, [f64; 2]) {
+        if self.high_pass_reported {
+            return (self.high_pass, self.high_pass_ci95);
+        }
         if self.consistent {
-            return self.model_ci95;
+            return (self.estimate, self.model_ci95);
         }
         let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
-        [self.model_ci95[0].min(self.high_pass_ci95[0]) / d, self.model_ci95[1].max(self.high_pass_ci95[1]) * d]
+        (self.estimate, [self.model_ci95[0].min(self.high_pass_ci95[0]) / d, self.model_ci95[1].max(self.high_pass_ci95[1]) * d])
     }
 }
 
 impl std::fmt::Display for ClCheck {
     /// One sentence on the test, for people.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.consistent {
+        if self.high_pass_reported {
+            write!(f, "the high-pass refit agrees (Hausman {:.1} ≤ {:.1}) and pins Cl down closer than the output-error fit: its estimate is reported", self.hausman, self.limit)
+        } else if self.consistent {
             write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1})", self.high_pass * 1e6, self.hausman, self.limit)
         } else {
             write!(
@@ -616,6 +629,25 @@ mod tests {
         assert!(!on_bound("cap_dc_bias", 0.85));
         assert!(!on_bound("cap_dc_bias", 1e-9));
         assert!(!on_bound("no_such_variable", 1e9));
+    }
+
+    /// Of two fits that agree, the more precise is reported: the output-error fit's as a rule,
+    /// the high-pass fit's where the output-error interval runs from zero to beyond a farad;
+    /// two that disagree give the output-error estimate inside the hull widened by their
+    /// distance (here ×1.2 on each side).
+    #[test]
+    fn the_more_precise_of_two_agreeing_fits_is_reported() {
+        let oe = ClCheck::new(1.0e-6, [0.98e-6, 1.02e-6], 1.01e-6, [0.9e-6, 1.1e-6], 0.3, 6.63);
+        assert!(!oe.high_pass_reported);
+        assert_eq!(oe.reported(), (1.0e-6, [0.98e-6, 1.02e-6]));
+        let hp = ClCheck::new(1.75e-9, [9e-16, 3.3e-3], 0.35e-6, [0.29e-6, 0.42e-6], 0.5, 6.63);
+        assert!(hp.high_pass_reported);
+        assert_eq!(hp.reported(), (0.35e-6, [0.29e-6, 0.42e-6]));
+        let apart = ClCheck::new(1.2e-6, [1.1e-6, 1.3e-6], 1.0e-6, [0.9e-6, 1.1e-6], 40.0, 6.63);
+        assert!(!apart.consistent && !apart.high_pass_reported);
+        let (cl, [lo, hi]) = apart.reported();
+        assert_eq!(cl, 1.2e-6);
+        assert!((lo - 0.75e-6).abs() < 1e-12 && (hi - 1.56e-6).abs() < 1e-12, "hull [{lo}, {hi}]");
     }
 
     /// White residuals leave an interval alone; residuals coloured like a model error (AR(1),

@@ -64,10 +64,11 @@ pub struct Before {
     pub nrmse: f64,
     /// Held-out residual RMS of the nominal model's simulation [V].
     pub rms: f64,
-    /// Cl of the nominal fit [F].
+    /// Cl of the nominal fit [F] (when the verdict is `none` and the high-pass refit agrees and
+    /// is the more precise, that one's; see [`ClCheck`]).
     pub cl: f64,
-    /// Its CI95 [F]: the model's own, or, when the verdict is `none` and the interval's test
-    /// fails, the hull with the high-pass fit's (see [`ClCheck`]).
+    /// Its CI95 [F]: the model's own, or, when the verdict is `none`, the one the interval's
+    /// test reports (see [`ClCheck`]).
     pub cl_ci95: [f64; 2],
     /// The test of the interval when the verdict is `none`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -192,8 +193,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if switched { consistency::check(data, nominal, fits, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) }
     };
     let test = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| match check(fits, cl, ci95) {
-        Ok(check) => (check.ci95(), Some(check), None),
-        Err(reason) => (ci95, None, Some(reason)),
+        Ok(check) => (check.reported(), Some(check), None),
+        Err(reason) => ((cl, ci95), None, Some(reason)),
     };
     let final_test = |selected: &[EffectFit]| match selected.last() {
         Some(last) => test(&selected.iter().collect::<Vec<_>>(), last.cl.estimate, last.cl.ci95),
@@ -208,7 +209,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
-    let (mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by) = (base_cl, None, None, None);
+    let (mut cl, mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by) = (baseline.cl, base_cl, None, None, None);
     // A final model that still misses materially above the floor leaves its error in the
     // residual, coloured: its Cl interval is widened by the square root of the residual's
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
@@ -217,15 +218,16 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
     };
     if let Some(last) = selected.last_mut() {
-        (last.cl.ci95, last.cl.check, last.cl.check_skipped) = tested;
+        ((last.cl.estimate, last.cl.ci95), last.cl.check, last.cl.check_skipped) = tested;
+        last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
         if let Some(k) = still_misses(&last.residual, last.rms_after) {
             last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);
         }
     } else {
-        (cl_ci95, cl_check, cl_check_skipped) = tested;
+        ((cl, cl_ci95), cl_check, cl_check_skipped) = tested;
         if let Some(k) = still_misses(&residual, baseline.rms) {
-            cl_ci95 = effect::widen(baseline.cl, cl_ci95, k);
+            cl_ci95 = effect::widen(cl, cl_ci95, k);
             cl_widened_by = Some(k);
         }
     }
@@ -250,7 +252,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             model: base.structure.name(),
             nrmse: baseline.nrmse,
             rms: baseline.rms,
-            cl: baseline.cl,
+            cl,
             cl_ci95,
             cl_check,
             cl_check_skipped,

@@ -212,14 +212,17 @@ impl Extension {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
         // An effect added on top must leave the ones before it in place: when one of theirs is
         // no longer pinned down, the newcomer replaces rather than adds.
-        if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !crate::effect::identified_interval([e.ci95.0, e.ci95.1])) {
+        let added = &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..];
+        if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1])) {
+            if added.iter().any(|f| f.name() == lost.name) {
+                return Err(format!("{}: `{}` not identified", self.name, lost.name));
+            }
             return Err(format!("{} displaces `{}` (no longer identified)", self.name, lost.name));
         }
         let estimate = |f: Free| cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()));
         let mut params = BTreeMap::new();
         let mut ci95 = BTreeMap::new();
         let mut drift = None;
-        let added = &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..];
         match self.name {
             "switching_ripple" => {}
             "switch_resistance" if self.stack.switched => {
@@ -477,6 +480,7 @@ pub(crate) fn forward(
         Ok(s) => s,
         Err(e) => return (selected, format!("no further step: {e}")),
     };
+    let mut fitted: Option<Candidate> = None;
     loop {
         let last = selected.last().map_or(f64::NAN, |e| e.rms_after);
         // Without a floor, only the candidates' own judgement ends the sequence.
@@ -486,48 +490,49 @@ pub(crate) fn forward(
         if selected.len() >= MAX_EFFECTS {
             return (selected, format!("{MAX_EFFECTS} effects selected, the most a sequence holds"));
         }
-        // The model so far, refitted in the form its extensions take.
-        let against = match stack.fit(data, &[stack.params], n_est, holdout) {
+        // The model so far: the fit that added its last effect, or, for the first (fitted as a
+        // candidate), refitted in the form its extensions take.
+        let against = match fitted.take().map_or_else(|| stack.fit(data, &[stack.params], n_est, holdout), Ok) {
             Ok(c) => c,
             Err(e) => return (selected, format!("the model so far cannot be refitted: {e}")),
         };
         stack.params = against.fit.params;
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
+        let try_one = |x: &Extension| {
+            let t = x.trial(data, nominal, n_est, holdout).ok()?;
+            let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
+            if fit.name == "sample_delay" {
+                fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est);
+            }
+            Some((fit, cand, x.stack.clone()))
+        };
+        let mut trials = Vec::new();
         if stack.switched {
-            let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
             // A late reading is judged in il, which the vout screen cannot see: tried wherever
-            // the model so far misses il materially.
+            // the model so far misses il materially, and first: one the current shows is taken
+            // before any circuit effect (as in the first step), so these need no fit then.
             let il_missed = il_misses_materially(data, &stack.params, n_est);
             let (late, rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
-            extensions = screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est);
-            extensions.extend(late);
+            let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
+            let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est));
+            trials = late;
+            extensions = if trials.iter().any(|t| t.0.late_in_il()) { Vec::new() } else { screened };
         }
-        let trials: Vec<(usize, EffectFit, Candidate)> = extensions
-            .par_iter()
-            .enumerate()
-            .filter_map(|(i, x)| x.trial(data, nominal, n_est, holdout).ok().map(|t| (i, t)))
-            .map(|(i, t)| {
-                let (mut fit, cand) = judge(extensions[i].name, t, &against, n_est, baseline);
-                if fit.name == "sample_delay" {
-                    fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est);
-                }
-                (i, fit, cand)
-            })
-            .collect();
-        // A late reading the current shows comes first, as in the first step.
-        let next = match trials.iter().position(|t| t.1.late_in_il()) {
+        trials.extend(extensions.par_iter().filter_map(try_one).collect::<Vec<_>>());
+        let next = match trials.iter().position(|t| t.0.late_in_il()) {
             Some(k) => trials.into_iter().nth(k),
-            None => best_material(trials.into_iter(), |t| &t.1),
+            None => best_material(trials.into_iter(), |t| &t.0),
         };
-        let Some((i, fit, cand)) = next else {
+        let Some((fit, cand, extended)) = next else {
             return (selected, "no further effect is a finding".to_string());
         };
         if !fit.finding {
             return (selected, format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN)));
         }
-        stack = Stack { params: cand.fit.params, ..extensions[i].stack.clone() };
+        stack = Stack { params: cand.fit.params, ..extended };
         selected.push(fit);
         at_final_values(&mut selected, &cand, nominal);
+        fitted = Some(cand);
     }
 }
 
