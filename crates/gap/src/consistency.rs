@@ -25,12 +25,12 @@ use estimator::data::DataSet;
 use estimator::simulated::{Criterion, fit_with};
 use estimator::validate::{Z_975, chi2_99};
 
-use crate::effect::{ClCheck, EffectFit};
+use crate::effect::{ClCheck, EffectFit, log_width};
 use crate::select::Stack;
 
 /// Standard deviation of `ln Cl` from a CI95 of the log-normal approximation.
-fn log_sd([lo, hi]: [f64; 2]) -> f64 {
-    (hi.ln() - lo.ln()) / (2.0 * Z_975)
+fn log_sd(ci95: [f64; 2]) -> f64 {
+    log_width(ci95) / (2.0 * Z_975)
 }
 
 /// Tests Cl's interval `model_ci95` around `cl` of the final model (the nominal with `effects`)

@@ -46,8 +46,8 @@ pub struct ClMove {
     pub ci95: [f64; 2],
     /// Change against the nominal fit [%].
     pub moved_percent: f64,
-    /// The test of the interval, for the verdict (see `consistency`): when it fails, `ci95` is
-    /// the hull of the model's interval and the high-pass fit's.
+    /// The test of the interval, for the final model (see `consistency`): `estimate` and `ci95`
+    /// are then what it reports ([`ClCheck::reported`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub check: Option<ClCheck>,
     /// Why the verdict's interval was not tested (e.g. averaged data, which the switched
@@ -64,14 +64,21 @@ impl ClMove {
     /// Cl of `cand` against the nominal fit's `cl_before` (NaN where `cand` has no Cl).
     pub(crate) fn of(cand: &Candidate, cl_before: f64) -> Self {
         let cl = cand.fit.estimate("Cl");
+        let estimate = cl.map_or(f64::NAN, |e| e.value);
         Self {
-            estimate: cl.map_or(f64::NAN, |e| e.value),
+            estimate,
             ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
-            moved_percent: cl.map_or(f64::NAN, |e| 100.0 * (e.value / cl_before - 1.0)),
+            moved_percent: 100.0 * (estimate / cl_before - 1.0),
             check: None,
             check_skipped: None,
             widened_by: None,
         }
+    }
+
+    /// Takes the estimate and interval its test reports, the move against `cl_before` with it.
+    pub(crate) fn take_reported(&mut self, check: &ClCheck, cl_before: f64) {
+        (self.estimate, self.ci95) = check.reported();
+        self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
     }
 }
 
@@ -508,12 +515,12 @@ pub struct ClCheck {
     /// not, that hull is widened by their distance on each side.
     pub consistent: bool,
     /// The two agree and the high-pass fit is the more precise (the output-error fit has
-    /// settled where Cl barely shows in its criterion): its estimate and interval are reported.
+    /// settled where Cl barely shows in its criterion): its estimate is reported.
     pub high_pass_reported: bool,
 }
 
 /// Width of a CI95 in `ln` (infinite where it reaches zero or infinity).
-fn log_width([lo, hi]: [f64; 2]) -> f64 {
+pub(crate) fn log_width([lo, hi]: [f64; 2]) -> f64 {
     if lo > 0.0 { (hi / lo).ln() } else { f64::INFINITY }
 }
 
@@ -534,14 +541,16 @@ impl ClCheck {
     /// each side (in `ln Cl`).
     pub fn reported(&self) -> (f64, [f64; 2]) {
         let hull = [self.model_ci95[0].min(self.high_pass_ci95[0]), self.model_ci95[1].max(self.high_pass_ci95[1])];
-        if self.high_pass_reported {
-            return (self.high_pass, if estimator::validate::identified(self.model_ci95) { hull } else { self.high_pass_ci95 });
+        if !self.consistent {
+            let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
+            return (self.estimate, [hull[0] / d, hull[1] * d]);
         }
-        if self.consistent {
-            return (self.estimate, if estimator::validate::identified(self.high_pass_ci95) { hull } else { self.model_ci95 });
-        }
-        let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
-        (self.estimate, [hull[0] / d, hull[1] * d])
+        let (estimate, own, other) = if self.high_pass_reported {
+            (self.high_pass, self.high_pass_ci95, self.model_ci95)
+        } else {
+            (self.estimate, self.model_ci95, self.high_pass_ci95)
+        };
+        (estimate, if estimator::validate::identified(other) { hull } else { own })
     }
 }
 

@@ -187,21 +187,20 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         selection_ended = format!("{selection_ended}; then {dropped}");
     }
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
-    // the test refits with the switched plant simulator): the interval to report, the test, or
-    // why it was not made.
+    // the test refits with the switched plant simulator): the test, or why it was not made.
     let check = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
         if switched { consistency::check(data, nominal, fits, cl, ci95, n_est) } else { Err("averaged data: the switched simulator that tests the interval cannot fit it".to_string()) }
     };
     let test = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| match check(fits, cl, ci95) {
-        Ok(check) => (check.reported(), Some(check), None),
-        Err(reason) => ((cl, ci95), None, Some(reason)),
+        Ok(check) => (Some(check), None),
+        Err(reason) => (None, Some(reason)),
     };
     let final_test = |selected: &[EffectFit]| match selected.last() {
         Some(last) => test(&selected.iter().collect::<Vec<_>>(), last.cl.estimate, last.cl.ci95),
         None => test(&[], baseline.cl, base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1])),
     };
     let mut tested = final_test(&selected);
-    if let Some(failed) = tested.1.as_ref().filter(|c| !c.consistent)
+    if let Some(failed) = tested.0.as_ref().filter(|c| !c.consistent)
         && let Some(added) = select::for_cl(data, nominal, &mut selected, failed.hausman, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline, |f, cl, ci| check(f, cl, ci).ok())
     {
         selection_ended = format!("{selection_ended}; then {added}");
@@ -218,14 +217,19 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
     };
     if let Some(last) = selected.last_mut() {
-        ((last.cl.estimate, last.cl.ci95), last.cl.check, last.cl.check_skipped) = tested;
-        last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
+        if let Some(check) = &tested.0 {
+            last.cl.take_reported(check, baseline.cl);
+        }
+        (last.cl.check, last.cl.check_skipped) = tested;
         if let Some(k) = still_misses(&last.residual, last.rms_after) {
             last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);
         }
     } else {
-        ((cl, cl_ci95), cl_check, cl_check_skipped) = tested;
+        if let Some(check) = &tested.0 {
+            (cl, cl_ci95) = check.reported();
+        }
+        (cl_check, cl_check_skipped) = tested;
         if let Some(k) = still_misses(&residual, baseline.rms) {
             cl_ci95 = effect::widen(cl, cl_ci95, k);
             cl_widened_by = Some(k);

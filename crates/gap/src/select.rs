@@ -529,20 +529,20 @@ pub(crate) fn forward(
             let (late, rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
             let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
             let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est));
-            trials = late;
-            extensions = if trials.iter().any(|t| t.0.late_in_il()) { Vec::new() } else { screened };
+            (trials, extensions) = (late, screened);
         }
         // The averaged model's extensions are cheap and unscreened: all at once.
-        let batch = if stack.switched { SCREEN_KEEP } else { extensions.len().max(1) };
-        let mut switching_changed = true;
-        for round in 0..SCREEN_ROUNDS {
-            let ended = trials.iter().any(|t| t.0.late_in_il()) || (round > 0 && (!switching_changed || best_material(trials.iter(), |t| &t.0).is_some()));
-            let fits: Vec<Extension> = extensions.drain(..batch.min(extensions.len())).collect();
-            if ended || fits.is_empty() {
+        let batch = if stack.switched { SCREEN_KEEP } else { extensions.len() };
+        for _ in 0..SCREEN_ROUNDS {
+            if trials.iter().any(|t| t.0.late_in_il()) || extensions.is_empty() {
                 break;
             }
-            switching_changed = fits.iter().any(Extension::changes_switching);
+            let fits: Vec<Extension> = extensions.drain(..batch.min(extensions.len())).collect();
             trials.extend(fits.par_iter().filter_map(try_one).collect::<Vec<_>>());
+            // Another round only behind a change of the switching, and while nothing is material.
+            if !fits.iter().any(Extension::changes_switching) || best_material(trials.iter(), |t| &t.0).is_some() {
+                break;
+            }
         }
         let next = match trials.iter().position(|t| t.0.late_in_il()) {
             Some(k) => trials.into_iter().nth(k),

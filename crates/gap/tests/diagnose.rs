@@ -108,9 +108,10 @@ fn capacitor_parasitics_are_found_behind_the_switching_ripple() {
 }
 
 /// Cl's interval is tested against the high-pass refit: a right model passes, and its interval
-/// spans both fits' (each right under the model), holds the true Cl and stays within ±2 %. A model that misses a second effect (dead time named, a 30 mΩ load ESR left out)
-/// would move Cl outside its interval: the forward selection adds the second effect, and the
-/// final model's interval, tested, holds the true Cl.
+/// spans both fits' (each right under the model), holds the true Cl and stays within ±2 %. A
+/// model that misses a second effect (dead time named, a 30 mΩ load ESR left out) would move Cl
+/// outside its interval: the forward selection adds the second effect, and the final model's
+/// interval, tested, holds the true Cl.
 #[test]
 fn cl_interval_of_the_final_model_is_tested_and_holds() {
     let switched = DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() };
