@@ -545,22 +545,24 @@ impl ClCheck {
             let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
             return (self.estimate, [hull[0] / d, hull[1] * d]);
         }
-        let (estimate, own, other) = if self.high_pass_reported {
-            (self.high_pass, self.high_pass_ci95, self.model_ci95)
-        } else {
-            (self.estimate, self.model_ci95, self.high_pass_ci95)
-        };
-        (estimate, if estimator::validate::identified(other) { hull } else { own })
+        let (estimate, own) = if self.high_pass_reported { (self.high_pass, self.high_pass_ci95) } else { (self.estimate, self.model_ci95) };
+        (estimate, if self.spans_both() { hull } else { own })
+    }
+
+    /// The two agree and the one not reported pins Cl down too, so the interval spans both.
+    fn spans_both(&self) -> bool {
+        self.consistent && estimator::validate::identified(if self.high_pass_reported { self.model_ci95 } else { self.high_pass_ci95 })
     }
 }
 
 impl std::fmt::Display for ClCheck {
     /// One sentence on the test, for people.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let interval = if self.spans_both() { "the interval spans both fits'" } else { "the other fit's interval pins nothing down" };
         if self.high_pass_reported {
-            write!(f, "the high-pass refit agrees (Hausman {:.1} ≤ {:.1}) and pins Cl down closer than the output-error fit: its estimate is reported, in both fits' intervals", self.hausman, self.limit)
+            write!(f, "the high-pass refit agrees (Hausman {:.1} ≤ {:.1}) and pins Cl down closer than the output-error fit: its estimate is reported; {interval}", self.hausman, self.limit)
         } else if self.consistent {
-            write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1}): the interval spans both fits'", self.high_pass * 1e6, self.hausman, self.limit)
+            write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1}): {interval}", self.high_pass * 1e6, self.hausman, self.limit)
         } else {
             write!(
                 f,
