@@ -101,7 +101,8 @@ pub struct Case {
 /// averaged model).
 pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // The plant samples at the period start: a late acquisition comes from the harness only.
-    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| *e != "sample_delay"))
+    // A diode's slope resistance refines a diode effect; alone it changes nothing.
+    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance")))
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).

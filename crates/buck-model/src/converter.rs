@@ -103,9 +103,9 @@ enum Topology {
     Low,
     /// Averaged switch node `d·vin`, `RL + Rsw`.
     Averaged,
-    /// Low-side diode with `il > 0`: `u_sw = −Vf`, `RL`.
+    /// Low-side diode with `il > 0`: `u_sw = −Vf`, `RL + Rd`.
     LowDiode,
-    /// High-side body diode with `il < 0`: `u_sw = vin + V_bd`, `RL`.
+    /// High-side body diode with `il < 0`: `u_sw = vin + V_bd`, `RL + Rd`.
     HighDiode,
     /// Everything off, `il` held at 0; the switch node floats at the output.
     Blocked,
@@ -413,6 +413,7 @@ impl Converter {
             VarId::CapDcBias => p.cap_dc_bias,
             VarId::CapRatedVoltage => p.cap_rated_voltage,
             VarId::Rload => p.rload,
+            VarId::DiodeResistance => p.diode_resistance,
         }
     }
 
@@ -441,6 +442,7 @@ impl Converter {
                     VarId::Fs => p.fs = value,
                     VarId::SwitchResistance => p.switch_resistance = value,
                     VarId::DiodeDrop => p.diode_drop = value,
+                    VarId::DiodeResistance => p.diode_resistance = value,
                     VarId::DeadTime => p.dead_time = value,
                     VarId::LoadEsr => p.load_esr = value,
                     VarId::Esl => p.esl = value,
@@ -621,12 +623,13 @@ impl Converter {
         let p = &self.params;
         let vin = self.inputs.vin;
         let r_switch = p.rl + p.switch_resistance;
+        let r_diode = p.rl + p.diode_resistance;
         let (r, u_sw) = match topology {
             Topology::High => (r_switch, vin),
             Topology::Low => (r_switch, 0.0),
             Topology::Averaged => (r_switch, self.latched_duty * vin),
-            Topology::LowDiode => (p.rl, -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() }),
-            Topology::HighDiode => (p.rl, vin + p.body_diode_drop()),
+            Topology::LowDiode => (r_diode, -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() }),
+            Topology::HighDiode => (r_diode, vin + p.body_diode_drop()),
             Topology::Blocked => (p.rl, 0.0),
         };
         let blocked = topology == Topology::Blocked;

@@ -8,7 +8,7 @@ use crate::lti::Lti;
 ///
 /// The effect fields carry the names of the design's effects table (a contract with the CLI and
 /// JSON). `switch_resistance`, `load_esr`, `esl`, `inductor_saturation` and `cap_dc_bias` apply
-/// in both modes; `diode_drop`, `dcm` and `dead_time` describe the switching of the half bridge
+/// in both modes; `diode_drop`, `diode_resistance`, `dcm` and `dead_time` describe the switching of the half bridge
 /// and apply in [`Mode::Switched`] only (the averaged model ignores them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -31,6 +31,10 @@ pub struct Params {
     /// `diode_drop`: forward drop of the freewheeling diode [V]. Positive makes the buck
     /// asynchronous (the low side is a diode); also the body-diode drop during dead time.
     pub diode_drop: f64,
+    /// Slope resistance of the diodes [Ω]: a conducting diode (the freewheeling diode, a body
+    /// diode during dead time) drops `Vf + diode_resistance·|il|`, the threshold-voltage and
+    /// slope-resistance model of a diode datasheet (a real diode's `n·Vt/I` plus its `Rs`).
+    pub diode_resistance: f64,
     /// `dcm`: asynchronous buck with an ideal or `diode_drop` diode as the low side, so that the
     /// inductor current stops at zero (discontinuous conduction) instead of reversing.
     pub dcm: bool,
@@ -81,6 +85,7 @@ impl Default for Params {
             fs: 330e3,
             switch_resistance: 0.0,
             diode_drop: 0.0,
+            diode_resistance: 0.0,
             dcm: false,
             dead_time: 0.0,
             load_esr: 0.0,
@@ -121,6 +126,7 @@ impl Params {
             (VarId::Fs, self.fs),
             (VarId::SwitchResistance, self.switch_resistance),
             (VarId::DiodeDrop, self.diode_drop),
+            (VarId::DiodeResistance, self.diode_resistance),
             (VarId::DeadTime, self.dead_time),
             (VarId::LoadEsr, self.load_esr),
             (VarId::Esl, self.esl),

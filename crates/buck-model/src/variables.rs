@@ -54,6 +54,7 @@ pub enum VarId {
     CapDcBias,
     CapRatedVoltage,
     Rload,
+    DiodeResistance,
 }
 
 /// FMI causality.
@@ -219,6 +220,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::CapDcBias, "cap_dc_bias", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), capped at V_rated, held over each period at its value for the mid-period voltage (both modes)"),
     real(VarId::CapRatedVoltage, "cap_rated_voltage", Parameter, "V", (0.1, 1000.0), Some(16.0), "Rated voltage of Cl for cap_dc_bias"),
     real(VarId::Rload, "rload", Parameter, "Ohm", (0.0, 1e9), Some(0.0), "Load resistance from the output node vout to ground, beside the load current io; 0 = none (both modes)"),
+    real(VarId::DiodeResistance, "diode_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.

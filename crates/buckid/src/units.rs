@@ -8,7 +8,7 @@ pub fn unit_of(name: &str) -> &'static str {
     match name {
         "diode_drop" | "lsb" | "input_noise_rms" | "cap_rated_voltage" | "cl_reference_voltage" => "V",
         "dead_time" | "sample_delay" => "s",
-        "switch_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
+        "switch_resistance" | "diode_resistance" | "series_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" => "F",
         "isat" => "A",

@@ -120,6 +120,9 @@ pub enum Free {
     /// `diode_drop` of the freewheeling diode ([`Structure::Exact`] only; a positive value makes
     /// the buck asynchronous).
     DiodeDrop,
+    /// `diode_resistance`: slope resistance of the conducting diodes ([`Structure::Exact`] and
+    /// [`Structure::Simulated`] only).
+    DiodeResistance,
     /// `switch_resistance` of each switch ([`Structure::Exact`] only).
     SwitchResistance,
     /// `inductor_saturation`: fraction of `L` lost above `isat` ([`Structure::Exact`] and
@@ -148,6 +151,7 @@ impl Free {
             Free::Esl => "esl",
             Free::DeadTime => "dead_time",
             Free::DiodeDrop => "diode_drop",
+            Free::DiodeResistance => "diode_resistance",
             Free::SwitchResistance => "switch_resistance",
             Free::InductorSaturation => "inductor_saturation",
             Free::Isat => "isat",
@@ -185,6 +189,7 @@ impl Free {
             Free::Esl => p.esl,
             Free::DeadTime => p.dead_time,
             Free::DiodeDrop => p.diode_drop,
+            Free::DiodeResistance => p.diode_resistance,
             Free::SwitchResistance => p.switch_resistance,
             Free::InductorSaturation => p.inductor_saturation,
             Free::Isat => p.isat,
@@ -205,6 +210,7 @@ impl Free {
             Free::Esl => p.esl = value,
             Free::DeadTime => p.dead_time = value,
             Free::DiodeDrop => p.diode_drop = value,
+            Free::DiodeResistance => p.diode_resistance = value,
             Free::SwitchResistance => p.switch_resistance = value,
             Free::InductorSaturation => p.inductor_saturation = value,
             Free::Isat => p.isat = value,

@@ -12,7 +12,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 13] = [
+pub const EFFECTS: [&str; 14] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -26,6 +26,7 @@ pub const EFFECTS: [&str; 13] = [
     "cap_dc_bias",
     "param_drift",
     "sample_delay",
+    "diode_resistance",
 ];
 
 /// Akaike difference below which a model with as many parameters counts as clearly better

@@ -33,6 +33,10 @@ const RESISTANCE_STARTS: [f64; 2] = [0.0, 0.03];
 /// The switches' own resistance tried as starts [Ω].
 const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
 
+/// A diode's slope resistance tried as starts [Ω] (a Schottky's at a few amperes is
+/// 20–50 mΩ).
+const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
+
 /// Extra series resistance of the screen's probe [Ω].
 const PROBE_RESISTANCE: f64 = 0.01;
 
@@ -97,6 +101,10 @@ impl Stack {
                 self.free.push(f);
             }
             "delay" => self.delay = param("delay")? as usize,
+            "diode_resistance" => {
+                self.params.diode_resistance = param("diode_resistance")?;
+                self.free.push(Free::DiodeResistance);
+            }
             name => {
                 let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
                 self.params.dcm |= s.dcm;
@@ -184,6 +192,15 @@ impl Stack {
             return out;
         }
         let diode = has("diode_drop") || has("dcm");
+        // A real diode's drop grows with its current: once a diode conducts in the model (the
+        // low side, or the body diodes in dead time), its slope resistance.
+        if (diode || has("dead_time")) && !self.free.contains(&Free::DiodeResistance) {
+            let mut s = self.clone();
+            s.free.push(Free::DiodeResistance);
+            let starts = DIODE_RESISTANCE_STARTS.iter().map(|&r| Params { diode_resistance: r, ..self.params }).collect();
+            let probe = Params { diode_resistance: self.params.diode_resistance + PROBE_RESISTANCE, ..self.params };
+            out.push(Extension { name: "diode_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+        }
         for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
             let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
@@ -231,7 +248,8 @@ impl Extension {
         let mut drift = None;
         match self.name {
             "switching_ripple" => {}
-            "switch_resistance" if self.stack.switched => {
+            // The switches' own resistance; else an extra resistance in series with L (`RL`).
+            "switch_resistance" if added.contains(&Free::SwitchResistance) => {
                 let e = estimate(Free::SwitchResistance)?;
                 params.insert("switch_resistance".to_string(), e.value);
                 ci95.insert("switch_resistance".to_string(), [e.ci95.0, e.ci95.1]);
@@ -257,6 +275,11 @@ impl Extension {
             }
             "delay" => {
                 params.insert("delay".to_string(), self.stack.delay as f64);
+            }
+            "diode_resistance" => {
+                let e = estimate(Free::DiodeResistance)?;
+                params.insert("diode_resistance".to_string(), e.value);
+                ci95.insert("diode_resistance".to_string(), [e.ci95.0, e.ci95.1]);
             }
             name => {
                 let effect = SIMULATED_EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
