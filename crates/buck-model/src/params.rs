@@ -40,6 +40,14 @@ pub struct Params {
     pub dcm: bool,
     /// `dead_time`: both switches off after the high-side turn-off and before its turn-on [s].
     pub dead_time: f64,
+    /// Capacitance of the switch node to ground [F] (the switches' output capacitances, the
+    /// diode's junction, the layout). While both switches are off the inductor current
+    /// charges it: the node slews from the rail a switch held it at toward the diode clamp the
+    /// current pushes it to, in `Csw·ΔV/|il|` (soft switching where il drives it to the other
+    /// rail, hard where the turn-on comes first). `il` is held at its edge value meanwhile and
+    /// the node at its ramp's mean voltage (the slew lasts nanoseconds: il moves by milliamperes).
+    /// 0 (the default): the node switches at once.
+    pub switch_node_capacitance: f64,
     /// `load_esr`: series resistance of `Cl` [Ω]; `vout` is then the node voltage.
     pub load_esr: f64,
     /// `esl`: series inductance of the main capacitor branch `C`, `Rc` [H].
@@ -88,6 +96,7 @@ impl Default for Params {
             diode_resistance: 0.0,
             dcm: false,
             dead_time: 0.0,
+            switch_node_capacitance: 0.0,
             load_esr: 0.0,
             esl: 0.0,
             inductor_saturation: 0.0,
@@ -128,6 +137,7 @@ impl Params {
             (VarId::DiodeDrop, self.diode_drop),
             (VarId::DiodeResistance, self.diode_resistance),
             (VarId::DeadTime, self.dead_time),
+            (VarId::SwitchNodeCapacitance, self.switch_node_capacitance),
             (VarId::LoadEsr, self.load_esr),
             (VarId::Esl, self.esl),
             (VarId::InductorSaturation, self.inductor_saturation),

@@ -10,7 +10,7 @@ pub fn unit_of(name: &str) -> &'static str {
         "dead_time" | "sample_delay" => "s",
         "switch_resistance" | "diode_resistance" | "series_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",
-        "C" | "C_nominal" | "Cl" => "F",
+        "C" | "C_nominal" | "Cl" | "switch_node_capacitance" => "F",
         "isat" => "A",
         "fs" => "Hz",
         "delay" => "periods",

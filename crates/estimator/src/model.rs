@@ -123,6 +123,9 @@ pub enum Free {
     /// `diode_resistance`: slope resistance of the conducting diodes ([`Structure::Exact`] and
     /// [`Structure::Simulated`] only).
     DiodeResistance,
+    /// `switch_node_capacitance`, charged by il while both switches are off
+    /// ([`Structure::Exact`] and [`Structure::Simulated`] only).
+    SwitchNodeCapacitance,
     /// `switch_resistance` of each switch ([`Structure::Exact`] only).
     SwitchResistance,
     /// `inductor_saturation`: fraction of `L` lost above `isat` ([`Structure::Exact`] and
@@ -152,11 +155,48 @@ impl Free {
             Free::DeadTime => "dead_time",
             Free::DiodeDrop => "diode_drop",
             Free::DiodeResistance => "diode_resistance",
+            Free::SwitchNodeCapacitance => "switch_node_capacitance",
             Free::SwitchResistance => "switch_resistance",
             Free::InductorSaturation => "inductor_saturation",
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
             Free::SampleDelay => "sample_delay",
+        }
+    }
+
+    /// The ceiling of a fraction a fit must stay below (`cap_dc_bias`, `inductor_saturation`:
+    /// the top of their range in the variable table), `None` for the other parameters.
+    pub fn ceiling(self) -> Option<f64> {
+        match (self, buck_model::variables::by_name(self.name()).map(|v| v.ty)) {
+            (Free::CapDcBias | Free::InductorSaturation, Some(buck_model::variables::Type::Real { max, .. })) => Some(max),
+            _ => None,
+        }
+    }
+
+    /// A fit's unknown for the value `v`: `ln v`, or below a [`Free::ceiling`] `M` the logit
+    /// `ln(v/(M − v))`, which is `ln v` less a constant far below the ceiling and never reaches
+    /// it (a log-scale fit had to refuse its steps there: 30 iterations for a DC-bias law).
+    pub fn to_unknown(self, v: f64) -> f64 {
+        match self.ceiling() {
+            Some(m) => (v / (m - v)).ln(),
+            None => v.ln(),
+        }
+    }
+
+    /// The value of the unknown `u` (the inverse of [`Free::to_unknown`]).
+    pub fn from_unknown(self, u: f64) -> f64 {
+        match self.ceiling() {
+            Some(m) => m / (1.0 + (-u).exp()),
+            None => u.exp(),
+        }
+    }
+
+    /// `d ln v / du` at the unknown `u`: 1 on the log scale, `1 − v/M` below a ceiling (a
+    /// standard deviation of `u` times it is the relative one of the value).
+    pub fn relative_slope(self, u: f64) -> f64 {
+        match self.ceiling() {
+            Some(m) => 1.0 - self.from_unknown(u) / m,
+            None => 1.0,
         }
     }
 
@@ -190,6 +230,7 @@ impl Free {
             Free::DeadTime => p.dead_time,
             Free::DiodeDrop => p.diode_drop,
             Free::DiodeResistance => p.diode_resistance,
+            Free::SwitchNodeCapacitance => p.switch_node_capacitance,
             Free::SwitchResistance => p.switch_resistance,
             Free::InductorSaturation => p.inductor_saturation,
             Free::Isat => p.isat,
@@ -211,6 +252,7 @@ impl Free {
             Free::DeadTime => p.dead_time = value,
             Free::DiodeDrop => p.diode_drop = value,
             Free::DiodeResistance => p.diode_resistance = value,
+            Free::SwitchNodeCapacitance => p.switch_node_capacitance = value,
             Free::SwitchResistance => p.switch_resistance = value,
             Free::InductorSaturation => p.inductor_saturation = value,
             Free::Isat => p.isat = value,
@@ -839,6 +881,28 @@ pub fn frequency_response(p: &Params, vin: f64, freqs: &[f64]) -> Vec<nalgebra::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A fraction's unknown is its logit below the ceiling (0.9 for `cap_dc_bias`): it round
+    /// trips, is `ln v` less `ln 0.9` far below the ceiling, never reaches the ceiling however
+    /// far a step goes, and its relative slope is `d ln v/du` (central difference); the other
+    /// parameters stay on the log scale.
+    #[test]
+    fn a_fraction_is_fitted_as_a_logit_below_its_ceiling() {
+        let f = Free::CapDcBias;
+        assert_eq!(f.ceiling(), Some(0.9));
+        for v in [1e-6, 0.1, 0.45, 0.8, 0.8999] {
+            let u = f.to_unknown(v);
+            assert!((f.from_unknown(u) / v - 1.0).abs() < 1e-12, "{v}");
+            let h = 1e-6;
+            let slope = (f.from_unknown(u + h).ln() - f.from_unknown(u - h).ln()) / (2.0 * h);
+            assert!((f.relative_slope(u) - slope).abs() < 1e-6, "{v}: {slope}");
+        }
+        assert!((f.to_unknown(1e-6) - (1e-6f64.ln() - 0.9f64.ln())).abs() < 1e-5);
+        assert!((1..=30).all(|u| f.from_unknown(f64::from(u)) < 0.9));
+        assert_eq!(Free::Cl.ceiling(), None);
+        assert_eq!(Free::Cl.to_unknown(2e-6), 2e-6f64.ln());
+        assert_eq!(Free::Cl.relative_slope(-13.0), 1.0);
+    }
 
     /// At low frequency the averaged gain duty → vout is vin (the DC gain of the buck).
     #[test]

@@ -464,8 +464,9 @@ pub(crate) fn covariance(jtj: DMatrix<f64>, s2: f64) -> Result<DMatrix<f64>, Est
         .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))
 }
 
-/// The estimates of `free` from their log values `logs` and the covariance of the logs (whose
-/// leading block belongs to them), with 95 % intervals from the log-scale normal approximation.
+/// The estimates of `free` from their unknowns `logs` (log values, or logits below a ceiling:
+/// [`Free::to_unknown`]) and the covariance of the unknowns (whose leading block belongs to
+/// them), with 95 % intervals from the normal approximation on that scale.
 pub(crate) fn log_estimates(free: &[Free], logs: &[f64], covariance: &DMatrix<f64>) -> Vec<Estimate> {
     free.iter()
         .enumerate()
@@ -473,9 +474,9 @@ pub(crate) fn log_estimates(free: &[Free], logs: &[f64], covariance: &DMatrix<f6
             let sd = covariance[(i, i)].max(0.0).sqrt();
             Estimate {
                 name: f.name(),
-                value: logs[i].exp(),
-                ci95: ((logs[i] - Z_975 * sd).exp(), (logs[i] + Z_975 * sd).exp()),
-                rel_std: sd,
+                value: f.from_unknown(logs[i]),
+                ci95: (f.from_unknown(logs[i] - Z_975 * sd), f.from_unknown(logs[i] + Z_975 * sd)),
+                rel_std: sd * f.relative_slope(logs[i]),
             }
         })
         .collect()

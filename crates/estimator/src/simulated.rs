@@ -124,11 +124,12 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
     }
 }
 
-/// Circuit values with the free parameters set from the unknowns `[ln θ | v0]`.
+/// Circuit values with the free parameters set from the unknowns `[ln θ | v0]` (a logit for a
+/// fraction below its ceiling: [`Free::to_unknown`]).
 fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
     let mut p = *start;
     for (f, l) in free.iter().zip(unknowns) {
-        f.set(&mut p, l.exp());
+        f.set(&mut p, f.from_unknown(*l));
     }
     p
 }
@@ -153,7 +154,7 @@ fn il_weight(data: &DataSet) -> Option<f64> {
 fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Option<DVector<f64>> {
     // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
     let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
-        Some(Type::Real { min, max, .. }) => (min..=max).contains(&l.exp()),
+        Some(Type::Real { min, max, .. }) => (min..=max).contains(&f.from_unknown(*l)),
         _ => true,
     });
     if !inside {
@@ -235,7 +236,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     }
     // The unknowns `[ln θ | v0]` of each start; the initial voltage starts at the first
     // measured sample.
-    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.get(s).ln()).chain([data.vout[0]]).collect()).collect();
+    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.to_unknown(f.get(s))).chain([data.vout[0]]).collect()).collect();
     if tries.iter().flatten().any(|l| !l.is_finite()) {
         return Err(EstimatorError::Config("start values of free parameters must be positive".into()));
     }

@@ -12,7 +12,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 14] = [
+pub const EFFECTS: [&str; 15] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -27,6 +27,7 @@ pub const EFFECTS: [&str; 14] = [
     "param_drift",
     "sample_delay",
     "diode_resistance",
+    "switch_node_capacitance",
 ];
 
 /// Akaike difference below which a model with as many parameters counts as clearly better

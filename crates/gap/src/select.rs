@@ -37,6 +37,10 @@ const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
 /// 20–50 mΩ).
 const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 
+/// A switch node's capacitance tried as starts [F] (a power MOSFET's output capacitance is a
+/// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
+const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
+
 /// Extra series resistance of the screen's probe [Ω].
 const PROBE_RESISTANCE: f64 = 0.01;
 
@@ -104,6 +108,10 @@ impl Stack {
             "diode_resistance" => {
                 self.params.diode_resistance = param("diode_resistance")?;
                 self.free.push(Free::DiodeResistance);
+            }
+            "switch_node_capacitance" => {
+                self.params.switch_node_capacitance = param("switch_node_capacitance")?;
+                self.free.push(Free::SwitchNodeCapacitance);
             }
             name => {
                 let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
@@ -201,6 +209,15 @@ impl Stack {
             let probe = Params { diode_resistance: self.params.diode_resistance + PROBE_RESISTANCE, ..self.params };
             out.push(Extension { name: "diode_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
         }
+        // Where both switches are ever off (dead time, a diode buck's off-time), il charges the
+        // switch node: its capacitance decides how fast the node slews.
+        if (diode || has("dead_time")) && !self.free.contains(&Free::SwitchNodeCapacitance) {
+            let mut s = self.clone();
+            s.free.push(Free::SwitchNodeCapacitance);
+            let starts = SWITCH_NODE_CAPACITANCE_STARTS.iter().map(|&c| Params { switch_node_capacitance: c, ..self.params }).collect();
+            let probe = Params { switch_node_capacitance: self.params.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0], ..self.params };
+            out.push(Extension { name: "switch_node_capacitance", stack: s, starts, probe, extra: 1, not_nested: false });
+        }
         for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
             let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
@@ -276,10 +293,11 @@ impl Extension {
             "delay" => {
                 params.insert("delay".to_string(), self.stack.delay as f64);
             }
-            "diode_resistance" => {
-                let e = estimate(Free::DiodeResistance)?;
-                params.insert("diode_resistance".to_string(), e.value);
-                ci95.insert("diode_resistance".to_string(), [e.ci95.0, e.ci95.1]);
+            "diode_resistance" | "switch_node_capacitance" => {
+                let f = *added.first().ok_or("nothing freed")?;
+                let e = estimate(f)?;
+                params.insert(f.name().to_string(), e.value);
+                ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
             }
             name => {
                 let effect = SIMULATED_EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;

@@ -192,6 +192,23 @@ fn a_diode_with_a_slope_resistance_is_found() {
     assert_final_cl_holds(&dx, CL);
 }
 
+/// Dead time where the switch node's capacitance decides how far the node swings: 40 ns and
+/// 1 nF at 1.2 A, where the valley current is near zero (each slew takes 5–50 ns, some of them
+/// cut short by the turn-on). The dead time is found first, the capacitance on top, near its
+/// value, and Cl's interval holds.
+#[test]
+fn a_dead_time_with_a_switch_node_capacitance_is_found() {
+    let c = plant(Params { cl: CL, dead_time: 40e-9, switch_node_capacitance: 1e-9, ..Params::default() }, Mode::Switched);
+    let dx = diagnose_switched(&data_at(c, 1.2));
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["dead_time", "switch_node_capacitance"], "{}", dx.selection_ended);
+    let csw = dx.selected[1].params["switch_node_capacitance"];
+    assert!((csw / 1e-9 - 1.0).abs() < 0.2, "switch-node capacitance {csw:e}");
+    let td = dx.selected[0].params["dead_time"];
+    assert!((td / 40e-9 - 1.0).abs() < 0.05, "dead time {td:e}");
+    assert_final_cl_holds(&dx, CL);
+}
+
 /// A diode buck whose inductor has 40 mΩ more than its nominal (in series all period, the diode's
 /// off-time too): the second step is an extra series resistance (`series_resistance`), not the
 /// high side's nor the diode's alone. (That form used to fail on every switched stack: its
