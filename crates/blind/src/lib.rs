@@ -101,9 +101,9 @@ pub struct Case {
 /// averaged model).
 pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // The plant samples at the period start: a late acquisition comes from the harness only.
-    // A diode's slope resistance and the switch node's capacitance refine a diode or a dead
-    // time; alone they change nothing.
-    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance" | "switch_node_capacitance")))
+    // A diode's slope resistance, the switch node's capacitance and unequal switches refine a
+    // diode, a dead time or the switches' resistance; alone they change nothing.
+    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches")))
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).

@@ -107,9 +107,9 @@ enum Gate {
 enum Topology {
     /// High-side switch (either current direction): `u_sw = vin`, `RL + Rsw`.
     High,
-    /// Low-side switch (either direction): `u_sw = 0`, `RL + Rsw`.
+    /// Low-side switch (either direction): `u_sw = 0`, `RL + Rsw·low_side_ratio`.
     Low,
-    /// Averaged switch node `d·vin`, `RL + Rsw`.
+    /// Averaged switch node `d·vin`, `RL` plus the switches' resistance averaged over the period.
     Averaged,
     /// Low-side diode with `il > 0`: `u_sw = −Vf`, `RL + Rd`.
     LowDiode,
@@ -437,6 +437,7 @@ impl Converter {
             VarId::Rload => p.rload,
             VarId::DiodeResistance => p.diode_resistance,
             VarId::SwitchNodeCapacitance => p.switch_node_capacitance,
+            VarId::LowSideRatio => p.low_side_ratio,
         }
     }
 
@@ -467,6 +468,7 @@ impl Converter {
                     VarId::DiodeDrop => p.diode_drop = value,
                     VarId::DiodeResistance => p.diode_resistance = value,
                     VarId::SwitchNodeCapacitance => p.switch_node_capacitance = value,
+                    VarId::LowSideRatio => p.low_side_ratio = value,
                     VarId::DeadTime => p.dead_time = value,
                     VarId::LoadEsr => p.load_esr = value,
                     VarId::Esl => p.esl = value,
@@ -688,12 +690,11 @@ impl Converter {
     fn configure(&self, topology: Topology) -> (Circuit, f64) {
         let p = &self.params;
         let vin = self.inputs.vin;
-        let r_switch = p.rl + p.switch_resistance;
         let r_diode = p.rl + p.diode_resistance;
         let (r, u_sw) = match topology {
-            Topology::High => (r_switch, vin),
-            Topology::Low => (r_switch, 0.0),
-            Topology::Averaged => (r_switch, self.latched_duty * vin),
+            Topology::High => (p.switching_resistance(1.0), vin),
+            Topology::Low => (p.switching_resistance(0.0), 0.0),
+            Topology::Averaged => (p.switching_resistance(self.latched_duty), self.latched_duty * vin),
             Topology::LowDiode => (r_diode, -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() }),
             Topology::HighDiode => (r_diode, vin + p.body_diode_drop()),
             Topology::Blocked => (p.rl, 0.0),

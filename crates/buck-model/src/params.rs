@@ -28,6 +28,11 @@ pub struct Params {
     /// `switch_resistance`: on-resistance of each switch of the synchronous half bridge [Ω],
     /// in series with `RL` while a switch (not a diode) conducts.
     pub switch_resistance: f64,
+    /// On-resistance of the low-side switch over the high side's (`switch_resistance`): 1 (the
+    /// default) for equal switches. A real half bridge pairs a fast high side with a larger,
+    /// lower-resistance low side, so the series resistance depends on the duty:
+    /// `d·Rhs + (1 − d)·Rls` on average. Synchronous buck, both modes.
+    pub low_side_ratio: f64,
     /// `diode_drop`: forward drop of the freewheeling diode [V]. Positive makes the buck
     /// asynchronous (the low side is a diode); also the body-diode drop during dead time.
     pub diode_drop: f64,
@@ -92,6 +97,7 @@ impl Default for Params {
             cl: 10e-6,
             fs: 330e3,
             switch_resistance: 0.0,
+            low_side_ratio: 1.0,
             diode_drop: 0.0,
             diode_resistance: 0.0,
             dcm: false,
@@ -134,6 +140,7 @@ impl Params {
             (VarId::Cl, self.cl),
             (VarId::Fs, self.fs),
             (VarId::SwitchResistance, self.switch_resistance),
+            (VarId::LowSideRatio, self.low_side_ratio),
             (VarId::DiodeDrop, self.diode_drop),
             (VarId::DiodeResistance, self.diode_resistance),
             (VarId::DeadTime, self.dead_time),
@@ -402,12 +409,18 @@ impl Params {
         lti
     }
 
+    /// Series resistance of the inductor path while the switches conduct, averaged over a
+    /// period at `duty`: `RL + d·Rhs + (1 − d)·Rls` (`Rls = low_side_ratio·switch_resistance`).
+    pub fn switching_resistance(&self, duty: f64) -> f64 {
+        self.rl + self.switch_resistance * (duty + (1.0 - duty) * self.low_side_ratio)
+    }
+
     /// DC operating point `[il, vc, vo]` of the averaged model in continuous conduction:
-    /// `il = io + vo/rload`, `vc = vo = (d·vin − r·io)/(1 + r/rload)` with
-    /// `r = RL + switch_resistance` (no current in the capacitor branches, so neither `load_esr`
-    /// nor `esl` shifts it); without a load resistor `il = io`, `vo = d·vin − r·io`.
+    /// `il = io + vo/rload`, `vc = vo = (d·vin − r·io)/(1 + r/rload)` with `r` the
+    /// [`Params::switching_resistance`] (no current in the capacitor branches, so neither
+    /// `load_esr` nor `esl` shifts it); without a load resistor `il = io`, `vo = d·vin − r·io`.
     pub fn steady_state(&self, duty: f64, vin: f64, io: f64) -> [f64; 3] {
-        let r = self.rl + self.switch_resistance;
+        let r = self.switching_resistance(duty);
         if self.rload > 0.0 {
             let vo = (duty * vin - r * io) * self.rload / (self.rload + r);
             return [io + vo / self.rload, vo, vo];
@@ -417,11 +430,13 @@ impl Params {
     }
 
     /// Duty of the averaged DC operating point with output `vo` (continuous conduction):
-    /// `(vo + r·(io + vo/rload))/vin`, `r = RL + switch_resistance` [1]; the inverse of
-    /// [`Params::steady_state`], not clamped.
+    /// `(vo + r·(io + vo/rload))/vin`, `r` the [`Params::switching_resistance`] at that duty
+    /// [1]; the inverse of [`Params::steady_state`], not clamped.
     pub fn duty_for(&self, vo: f64, vin: f64, io: f64) -> f64 {
-        let r = self.rl + self.switch_resistance;
-        (vo + r * (io + vo * self.load_conductance())) / vin
+        let il = io + vo * self.load_conductance();
+        // r = RL + Rls + d·(Rhs − Rls): linear in d, so the balance d·vin = vo + r·il solves at once.
+        let (r0, slope) = (self.rl + self.switch_resistance * self.low_side_ratio, self.switch_resistance * (1.0 - self.low_side_ratio));
+        (vo + r0 * il) / (vin - slope * il)
     }
 }
 

@@ -56,6 +56,7 @@ pub enum VarId {
     Rload,
     DiodeResistance,
     SwitchNodeCapacitance,
+    LowSideRatio,
 }
 
 /// FMI causality.
@@ -223,6 +224,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::Rload, "rload", Parameter, "Ohm", (0.0, 1e9), Some(0.0), "Load resistance from the output node vout to ground, beside the load current io; 0 = none (both modes)"),
     real(VarId::DiodeResistance, "diode_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)"),
     real(VarId::SwitchNodeCapacitance, "switch_node_capacitance", Parameter, "F", (0.0, 1e-6), Some(0.0), "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)"),
+    real(VarId::LowSideRatio, "low_side_ratio", Parameter, "1", (0.01, 100.0), Some(1.0), "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.

@@ -126,6 +126,9 @@ pub enum Free {
     /// `switch_node_capacitance`, charged by il while both switches are off
     /// ([`Structure::Exact`] and [`Structure::Simulated`] only).
     SwitchNodeCapacitance,
+    /// `low_side_ratio`: the low-side switch's on-resistance over the high side's
+    /// ([`Structure::Exact`] and [`Structure::Simulated`] only).
+    LowSideRatio,
     /// `switch_resistance` of each switch ([`Structure::Exact`] only).
     SwitchResistance,
     /// `inductor_saturation`: fraction of `L` lost above `isat` ([`Structure::Exact`] and
@@ -157,6 +160,7 @@ impl Free {
             Free::DiodeResistance => "diode_resistance",
             Free::SwitchNodeCapacitance => "switch_node_capacitance",
             Free::SwitchResistance => "switch_resistance",
+            Free::LowSideRatio => "low_side_ratio",
             Free::InductorSaturation => "inductor_saturation",
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
@@ -232,6 +236,7 @@ impl Free {
             Free::DiodeResistance => p.diode_resistance,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance,
             Free::SwitchResistance => p.switch_resistance,
+            Free::LowSideRatio => p.low_side_ratio,
             Free::InductorSaturation => p.inductor_saturation,
             Free::Isat => p.isat,
             Free::CapDcBias => p.cap_dc_bias,
@@ -254,6 +259,7 @@ impl Free {
             Free::DiodeResistance => p.diode_resistance = value,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance = value,
             Free::SwitchResistance => p.switch_resistance = value,
+            Free::LowSideRatio => p.low_side_ratio = value,
             Free::InductorSaturation => p.inductor_saturation = value,
             Free::Isat => p.isat = value,
             Free::CapDcBias => p.cap_dc_bias = value,

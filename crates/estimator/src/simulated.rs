@@ -26,6 +26,7 @@
 use buck_model::variables::{Type, VarId, by_name};
 use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use crate::data::DataSet;
 use crate::error::EstimatorError;
@@ -55,6 +56,10 @@ const NOISE_RESOLUTION: f64 = 1e-5;
 
 /// Iteration limit of Levenberg–Marquardt.
 const MAX_ITERATIONS: usize = 40;
+/// Relative distance from a fraction's ceiling ([`Free::ceiling`]) within which a fit stops:
+/// it has run onto the edge of the range (not converged, whatever it would creep to next), and
+/// the logit would take it closer by ever smaller amounts.
+const AT_CEILING: f64 = 1e-3;
 
 /// Largest step in `ln θ` per iteration (a factor e).
 const MAX_LOG_STEP: f64 = 1.0;
@@ -176,21 +181,25 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
     Some(DVector::from_vec(r))
 }
 
-/// Jacobian of the simulated output (`−∂r/∂[ln θ | v0]`) by forward differences from `r0`.
+/// Jacobian of the simulated output (`−∂r/∂[ln θ | v0]`) by forward differences from `r0`, one
+/// simulation per column, the columns in parallel (a lone slow fit, a bias law or a saturation
+/// knee, then uses both cores).
 fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
-    let mut j = DMatrix::zeros(r0.len(), unknowns.len());
-    for i in 0..unknowns.len() {
-        let h = if i < free.len() { FD_STEP } else { V0_STEP };
-        // Forward, or backward at the upper end of a parameter's range.
-        let at = |step: f64| {
-            let mut u = unknowns.to_vec();
-            u[i] += step;
-            residuals(start, free, &u, estimation, criterion, il_weight).map(|r| (r, step))
-        };
-        let (ri, step) = at(h).or_else(|| at(-h))?;
-        j.set_column(i, &((r0 - ri) / step));
-    }
-    Some(j)
+    let columns: Option<Vec<DVector<f64>>> = (0..unknowns.len())
+        .into_par_iter()
+        .map(|i| {
+            let h = if i < free.len() { FD_STEP } else { V0_STEP };
+            // Forward, or backward at the upper end of a parameter's range.
+            let at = |step: f64| {
+                let mut u = unknowns.to_vec();
+                u[i] += step;
+                residuals(start, free, &u, estimation, criterion, il_weight).map(|r| (r, step))
+            };
+            let (ri, step) = at(h).or_else(|| at(-h))?;
+            Some((r0 - ri) / step)
+        })
+        .collect();
+    Some(DMatrix::from_columns(&columns?))
 }
 
 /// Fits `free` (all positive; `start` holds their start values and every known value) to the
@@ -382,6 +391,9 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                     cost = r.norm_squared();
                     lambda = (lambda / 10.0).max(1e-9);
                     accepted = true;
+                    if free.iter().zip(&logs).any(|(f, u)| f.ceiling().is_some_and(|m| f.from_unknown(*u) >= m * (1.0 - AT_CEILING))) {
+                        return Ok(Minimum { logs, r, j, cost, iterations, converged: false });
+                    }
                     break;
                 }
                 _ => lambda *= 10.0,

@@ -12,7 +12,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 15] = [
+pub const EFFECTS: [&str; 16] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -28,6 +28,7 @@ pub const EFFECTS: [&str; 15] = [
     "sample_delay",
     "diode_resistance",
     "switch_node_capacitance",
+    "unequal_switches",
 ];
 
 /// Akaike difference below which a model with as many parameters counts as clearly better

@@ -41,6 +41,10 @@ const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 /// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
 const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
 
+/// The low-side switch's on-resistance over the high side's, tried as starts (a low side
+/// half or twice the high side's).
+const LOW_SIDE_RATIO_STARTS: [f64; 2] = [0.5, 2.0];
+
 /// Extra series resistance of the screen's probe [Ω].
 const PROBE_RESISTANCE: f64 = 0.01;
 
@@ -113,6 +117,10 @@ impl Stack {
                 self.params.switch_node_capacitance = param("switch_node_capacitance")?;
                 self.free.push(Free::SwitchNodeCapacitance);
             }
+            "unequal_switches" => {
+                self.params.low_side_ratio = param("low_side_ratio")?;
+                self.free.push(Free::LowSideRatio);
+            }
             name => {
                 let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
                 self.params.dcm |= s.dcm;
@@ -164,6 +172,15 @@ impl Stack {
             let starts = SWITCH_RESISTANCE_STARTS.iter().map(|&r| Params { switch_resistance: r, ..self.params }).collect();
             let probe = Params { switch_resistance: self.params.switch_resistance + PROBE_RESISTANCE, ..self.params };
             out.push(Extension { name: "switch_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+        }
+        // The two switches of a synchronous half bridge are seldom alike: the low side's own
+        // resistance, once the switches' is in the model.
+        if self.switched && self.free.contains(&Free::SwitchResistance) && !self.params.asynchronous() && !self.free.contains(&Free::LowSideRatio) {
+            let mut s = self.clone();
+            s.free.push(Free::LowSideRatio);
+            let starts = LOW_SIDE_RATIO_STARTS.iter().map(|&k| Params { low_side_ratio: k, ..self.params }).collect();
+            let probe = Params { low_side_ratio: self.params.low_side_ratio * (1.0 + PROBE_DRIFT), ..self.params };
+            out.push(Extension { name: "unequal_switches", stack: s, starts, probe, extra: 1, not_nested: false });
         }
         // An extra resistance in series with L (conducting always: a diode buck's low side too).
         if !self.free.contains(&Free::RL) && !has("switch_resistance") {
@@ -293,7 +310,7 @@ impl Extension {
             "delay" => {
                 params.insert("delay".to_string(), self.stack.delay as f64);
             }
-            "diode_resistance" | "switch_node_capacitance" => {
+            "diode_resistance" | "switch_node_capacitance" | "unequal_switches" => {
                 let f = *added.first().ok_or("nothing freed")?;
                 let e = estimate(f)?;
                 params.insert(f.name().to_string(), e.value);
@@ -579,7 +596,16 @@ pub(crate) fn forward(
                 break;
             }
             let fits: Vec<Extension> = extensions.drain(..batch.min(extensions.len())).collect();
-            trials.extend(fits.par_iter().filter_map(try_one).collect::<Vec<_>>());
+            // The most promising first, alone: when it is a finding that leaves the gap within
+            // the noise floor, the data has nothing left for the others to explain better, and
+            // their fits (a bias law or a saturation knee costs ten times a resistance's) are saved.
+            let (head, rest) = fits.split_at(fits.len().min(1));
+            let first: Vec<_> = head.iter().filter_map(try_one).collect();
+            let settled = stack.switched && first.iter().any(|t| t.0.finding && baseline.misses_materially(t.0.rms_after) == Some(false));
+            trials.extend(first);
+            if !settled {
+                trials.extend(rest.par_iter().filter_map(try_one).collect::<Vec<_>>());
+            }
             // Another round only behind a change of the switching, and while nothing is material.
             if !fits.iter().any(Extension::changes_switching) || best_material(trials.iter(), |t| &t.0).is_some() {
                 break;

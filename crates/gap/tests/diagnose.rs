@@ -209,6 +209,21 @@ fn a_dead_time_with_a_switch_node_capacitance_is_found() {
     assert_final_cl_holds(&dx, CL);
 }
 
+/// A half bridge with unequal switches (40 mΩ high side, 12 mΩ low side) at 3 A: the
+/// switches' resistance first, then the low side's own, near its ratio, and Cl's interval holds.
+#[test]
+fn unequal_switches_are_found() {
+    let c = plant(Params { cl: CL, switch_resistance: 0.04, low_side_ratio: 0.3, ..Params::default() }, Mode::Switched);
+    let dx = diagnose_switched(&data_at(c, 3.0));
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["switch_resistance", "unequal_switches"], "{}", dx.selection_ended);
+    let ratio = dx.selected[1].params["low_side_ratio"];
+    assert!((ratio / 0.3 - 1.0).abs() < 0.15, "low-side ratio {ratio}");
+    let r = dx.selected[0].params["switch_resistance"];
+    assert!((r / 0.04 - 1.0).abs() < 0.1, "switch resistance {r}");
+    assert_final_cl_holds(&dx, CL);
+}
+
 /// A diode buck whose inductor has 40 mΩ more than its nominal (in series all period, the diode's
 /// off-time too): the second step is an extra series resistance (`series_resistance`), not the
 /// high side's nor the diode's alone. (That form used to fail on every switched stack: its
