@@ -614,7 +614,7 @@ impl Converter {
         if p.switch_node_capacitance == 0.0 || i0 == 0.0 || self.blocked {
             return None;
         }
-        let target = if i0 > 0.0 { -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() } } else { self.inputs.vin + p.body_diode_drop() };
+        let target = if i0 > 0.0 { -p.low_diode_drop() } else { self.inputs.vin + p.body_diode_drop() };
         let transit = p.switch_node_capacitance * (target - v0).abs() / i0.abs();
         let window = if p.asynchronous() { (SLEW_WINDOW * period).min(end - self.phase) } else { end - self.phase };
         // The ramp's volt-seconds within the window, then the clamp's.
@@ -695,7 +695,7 @@ impl Converter {
             Topology::High => (p.switching_resistance(1.0), vin),
             Topology::Low => (p.switching_resistance(0.0), 0.0),
             Topology::Averaged => (p.switching_resistance(self.latched_duty), self.latched_duty * vin),
-            Topology::LowDiode => (r_diode, -if p.asynchronous() { p.diode_drop } else { p.body_diode_drop() }),
+            Topology::LowDiode => (r_diode, -p.low_diode_drop()),
             Topology::HighDiode => (r_diode, vin + p.body_diode_drop()),
             Topology::Blocked => (p.rl, 0.0),
         };

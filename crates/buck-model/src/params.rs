@@ -185,6 +185,12 @@ impl Params {
         if self.diode_drop > 0.0 { self.diode_drop } else { BODY_DIODE_DROP }
     }
 
+    /// Drop of the diode that carries a positive il with both switches off [V]: the freewheeling
+    /// diode of the asynchronous buck, else the low-side switch's body diode.
+    pub fn low_diode_drop(&self) -> f64 {
+        if self.asynchronous() { self.diode_drop } else { self.body_diode_drop() }
+    }
+
     /// Load capacitance at the voltage `v` across it under `cap_dc_bias` [F].
     pub fn cl_at(&self, v: f64) -> f64 {
         if self.cap_dc_bias == 0.0 {

@@ -109,17 +109,9 @@ impl Stack {
                 self.free.push(f);
             }
             "delay" => self.delay = param("delay")? as usize,
-            "diode_resistance" => {
-                self.params.diode_resistance = param("diode_resistance")?;
-                self.free.push(Free::DiodeResistance);
-            }
-            "switch_node_capacitance" => {
-                self.params.switch_node_capacitance = param("switch_node_capacitance")?;
-                self.free.push(Free::SwitchNodeCapacitance);
-            }
-            "unequal_switches" => {
-                self.params.low_side_ratio = param("low_side_ratio")?;
-                self.free.push(Free::LowSideRatio);
+            name if let Some(f) = refinement(name) => {
+                f.set(&mut self.params, param(f.name())?);
+                self.free.push(f);
             }
             name => {
                 let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
@@ -157,6 +149,19 @@ impl Stack {
         .unwrap_or_else(|| Err("no start".to_string()))
     }
 
+    /// `name` as one more free parameter `f` of this model, started at each of `starts` and
+    /// probed at `probe` (the other values as fitted).
+    fn freeing(&self, name: &'static str, f: Free, starts: &[f64], probe: f64) -> Extension {
+        let mut stack = self.clone();
+        stack.free.push(f);
+        let at = |v: f64| {
+            let mut p = self.params;
+            f.set(&mut p, v);
+            p
+        };
+        Extension { name, stack, starts: starts.iter().map(|&v| at(v)).collect(), probe: at(probe), extra: 1, not_nested: false }
+    }
+
     /// The candidates on top of this model: each remaining effect's model and its starts.
     /// `ripple`: the data is switched, so an averaged model may add `switching_ripple`.
     fn extensions(&self, nominal: &Params, ripple: bool, io_mean: f64) -> Vec<Extension> {
@@ -166,45 +171,22 @@ impl Stack {
             let s = Stack { switched: true, ..self.clone() };
             out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], probe: self.params, extra: 0, not_nested: true });
         }
+        let p = &self.params;
         if self.switched && !has("switch_resistance") && !self.free.contains(&Free::SwitchResistance) {
-            let mut s = self.clone();
-            s.free.push(Free::SwitchResistance);
-            let starts = SWITCH_RESISTANCE_STARTS.iter().map(|&r| Params { switch_resistance: r, ..self.params }).collect();
-            let probe = Params { switch_resistance: self.params.switch_resistance + PROBE_RESISTANCE, ..self.params };
-            out.push(Extension { name: "switch_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+            out.push(self.freeing("switch_resistance", Free::SwitchResistance, &SWITCH_RESISTANCE_STARTS, p.switch_resistance + PROBE_RESISTANCE));
         }
         // The two switches of a synchronous half bridge are seldom alike: the low side's own
         // resistance, once the switches' is in the model.
-        if self.switched && self.free.contains(&Free::SwitchResistance) && !self.params.asynchronous() && !self.free.contains(&Free::LowSideRatio) {
-            let mut s = self.clone();
-            s.free.push(Free::LowSideRatio);
-            let starts = LOW_SIDE_RATIO_STARTS.iter().map(|&k| Params { low_side_ratio: k, ..self.params }).collect();
-            let probe = Params { low_side_ratio: self.params.low_side_ratio * (1.0 + PROBE_DRIFT), ..self.params };
-            out.push(Extension { name: "unequal_switches", stack: s, starts, probe, extra: 1, not_nested: false });
+        if self.switched && self.free.contains(&Free::SwitchResistance) && !p.asynchronous() && !self.free.contains(&Free::LowSideRatio) {
+            out.push(self.freeing("unequal_switches", Free::LowSideRatio, &LOW_SIDE_RATIO_STARTS, p.low_side_ratio * (1.0 + PROBE_DRIFT)));
         }
         // An extra resistance in series with L (conducting always: a diode buck's low side too).
         if !self.free.contains(&Free::RL) && !has("switch_resistance") {
-            let mut s = self.clone();
-            s.free.push(Free::RL);
-            let starts = RESISTANCE_STARTS.iter().map(|r| Params { rl: self.params.rl + r, ..self.params }).collect();
-            let probe = Params { rl: self.params.rl + PROBE_RESISTANCE, ..self.params };
-            out.push(Extension { name: "switch_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+            out.push(self.freeing("switch_resistance", Free::RL, &RESISTANCE_STARTS.map(|r| p.rl + r), p.rl + PROBE_RESISTANCE));
         }
         if !has("param_drift") {
             for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
-                let mut s = self.clone();
-                s.free.push(f);
-                let starts = DRIFT_STARTS
-                    .iter()
-                    .map(|k| {
-                        let mut p = self.params;
-                        f.set(&mut p, k * f.get(nominal));
-                        p
-                    })
-                    .collect();
-                let mut probe = self.params;
-                f.set(&mut probe, f.get(&self.params) * (1.0 + PROBE_DRIFT));
-                out.push(Extension { name: "param_drift", stack: s, starts, probe, extra: 1, not_nested: false });
+                out.push(self.freeing("param_drift", f, &DRIFT_STARTS.map(|k| k * f.get(nominal)), f.get(p) * (1.0 + PROBE_DRIFT)));
             }
         }
         if self.delay == 0 {
@@ -220,20 +202,13 @@ impl Stack {
         // A real diode's drop grows with its current: once a diode conducts in the model (the
         // low side, or the body diodes in dead time), its slope resistance.
         if (diode || has("dead_time")) && !self.free.contains(&Free::DiodeResistance) {
-            let mut s = self.clone();
-            s.free.push(Free::DiodeResistance);
-            let starts = DIODE_RESISTANCE_STARTS.iter().map(|&r| Params { diode_resistance: r, ..self.params }).collect();
-            let probe = Params { diode_resistance: self.params.diode_resistance + PROBE_RESISTANCE, ..self.params };
-            out.push(Extension { name: "diode_resistance", stack: s, starts, probe, extra: 1, not_nested: false });
+            out.push(self.freeing("diode_resistance", Free::DiodeResistance, &DIODE_RESISTANCE_STARTS, p.diode_resistance + PROBE_RESISTANCE));
         }
         // Where both switches are ever off (dead time, a diode buck's off-time), il charges the
         // switch node: its capacitance decides how fast the node slews.
         if (diode || has("dead_time")) && !self.free.contains(&Free::SwitchNodeCapacitance) {
-            let mut s = self.clone();
-            s.free.push(Free::SwitchNodeCapacitance);
-            let starts = SWITCH_NODE_CAPACITANCE_STARTS.iter().map(|&c| Params { switch_node_capacitance: c, ..self.params }).collect();
-            let probe = Params { switch_node_capacitance: self.params.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0], ..self.params };
-            out.push(Extension { name: "switch_node_capacitance", stack: s, starts, probe, extra: 1, not_nested: false });
+            let probe = p.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0];
+            out.push(self.freeing("switch_node_capacitance", Free::SwitchNodeCapacitance, &SWITCH_NODE_CAPACITANCE_STARTS, probe));
         }
         for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
             let starts = e.starts(&self.params, io_mean);
@@ -243,6 +218,17 @@ impl Stack {
             out.push(Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm });
         }
         out
+    }
+}
+
+/// The effects that refine one already in the model by a parameter of its own (a diode's slope
+/// resistance, the switch node's capacitance, unequal switches): that parameter.
+fn refinement(name: &str) -> Option<Free> {
+    match name {
+        "diode_resistance" => Some(Free::DiodeResistance),
+        "switch_node_capacitance" => Some(Free::SwitchNodeCapacitance),
+        "unequal_switches" => Some(Free::LowSideRatio),
+        _ => None,
     }
 }
 
@@ -282,13 +268,8 @@ impl Extension {
         let mut drift = None;
         match self.name {
             "switching_ripple" => {}
-            // The switches' own resistance; else an extra resistance in series with L (`RL`).
-            "switch_resistance" if added.contains(&Free::SwitchResistance) => {
-                let e = estimate(Free::SwitchResistance)?;
-                params.insert("switch_resistance".to_string(), e.value);
-                ci95.insert("switch_resistance".to_string(), [e.ci95.0, e.ci95.1]);
-            }
-            "switch_resistance" => {
+            // An extra resistance in series with L (`RL`); else the switches' own (below).
+            "switch_resistance" if !added.contains(&Free::SwitchResistance) => {
                 let e = estimate(Free::RL)?;
                 let base = self.starts[0].rl - RESISTANCE_STARTS[0];
                 // In the switched circuit the switches' own resistance is the other form.
@@ -310,7 +291,8 @@ impl Extension {
             "delay" => {
                 params.insert("delay".to_string(), self.stack.delay as f64);
             }
-            "diode_resistance" | "switch_node_capacitance" | "unequal_switches" => {
+            // One parameter reported under its own name.
+            name if name == "switch_resistance" || refinement(name).is_some() => {
                 let f = *added.first().ok_or("nothing freed")?;
                 let e = estimate(f)?;
                 params.insert(f.name().to_string(), e.value);
@@ -599,9 +581,9 @@ pub(crate) fn forward(
             // The most promising first, alone: when it is a finding that leaves the gap within
             // the noise floor, the data has nothing left for the others to explain better, and
             // their fits (a bias law or a saturation knee costs ten times a resistance's) are saved.
-            let (head, rest) = fits.split_at(fits.len().min(1));
+            let (head, rest) = fits.split_at(if stack.switched { fits.len().min(1) } else { 0 });
             let first: Vec<_> = head.iter().filter_map(try_one).collect();
-            let settled = stack.switched && first.iter().any(|t| t.0.finding && baseline.misses_materially(t.0.rms_after) == Some(false));
+            let settled = first.iter().any(|t| t.0.finding && baseline.misses_materially(t.0.rms_after) == Some(false));
             trials.extend(first);
             if !settled {
                 trials.extend(rest.par_iter().filter_map(try_one).collect::<Vec<_>>());
