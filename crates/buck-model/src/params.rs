@@ -81,6 +81,21 @@ pub struct Params {
     /// acquisition or ADC that reads a little late). Not a circuit value and not an FMU
     /// parameter: the estimator's plant simulator reads `vout` there (`sample_delay` effect).
     pub sample_delay: f64,
+    /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
+    /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like
+    /// `sample_delay`.
+    pub vout_offset: f64,
+    /// Relative gain error of the `vout` reading against the `vin` reading: `vout` is read as
+    /// `(1 + vout_gain_error)·vout + vout_offset` (a divider's resistor tolerance, a probe's
+    /// attenuation; `sensor_gain` effect). Not a circuit value and not an FMU parameter.
+    pub vout_gain_error: f64,
+    /// Offset of the `il` reading [A]: a current probe's or a sense amplifier's zero error. The
+    /// estimator fits it beside a late reading, which `il` pins (see
+    /// `estimator::simulated`). Not a circuit value and not an FMU parameter.
+    pub il_offset: f64,
+    /// Relative gain error of the `il` reading (a current probe's or a shunt's tolerance): `il`
+    /// is read as `(1 + il_gain_error)·il + il_offset`. Fitted with `il_offset`.
+    pub il_gain_error: f64,
 }
 
 /// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
@@ -112,6 +127,10 @@ impl Default for Params {
             cl_reference_voltage: 0.0,
             rload: 0.0,
             sample_delay: 0.0,
+            vout_offset: 0.0,
+            vout_gain_error: 0.0,
+            il_offset: 0.0,
+            il_gain_error: 0.0,
         }
     }
 }

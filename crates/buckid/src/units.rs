@@ -6,12 +6,12 @@ use estimator::validate::identified;
 /// The unit of an effect or circuit parameter by its contract name (`""` for a ratio).
 pub fn unit_of(name: &str) -> &'static str {
     match name {
-        "diode_drop" | "lsb" | "input_noise_rms" | "cap_rated_voltage" | "cl_reference_voltage" => "V",
+        "diode_drop" | "lsb" | "input_noise_rms" | "cap_rated_voltage" | "cl_reference_voltage" | "vout_offset" => "V",
         "dead_time" | "sample_delay" => "s",
         "switch_resistance" | "diode_resistance" | "series_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" | "switch_node_capacitance" => "F",
-        "isat" => "A",
+        "isat" | "il_offset" => "A",
         "fs" => "Hz",
         "delay" => "periods",
         _ => "",
@@ -173,5 +173,8 @@ mod tests {
         assert_eq!(with_ci(1e-9, Some([1.9350e-144, 6.2289e137]), "H"), "1.00 nH (not identified)");
         assert_eq!(with_ci(1e-9, Some([0.0, f64::INFINITY]), "H"), "1.00 nH (not identified)");
         assert_eq!(with_ci(0.4367, Some([0.4120, 0.4620]), "V"), "437 mV (CI95 412 mV … 462 mV)");
+        // A signed quantity (an offset) is identified below zero too, not across it.
+        assert_eq!(with_ci(-0.0101, Some([-0.0104, -0.0098]), "V"), "-10.1 mV (CI95 -10.4 mV … -9.80 mV)");
+        assert_eq!(with_ci(0.0002, Some([-0.0001, 0.0005]), "V"), "200 µV (not identified)");
     }
 }

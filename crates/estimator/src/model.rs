@@ -142,6 +142,11 @@ pub enum Free {
     /// `sample_delay`: the outputs sampled this long after each period start
     /// ([`Structure::Simulated`] only).
     SampleDelay,
+    /// `vout_offset`: the `vout` reading's zero error, signed ([`Structure::Simulated`] only).
+    VoutOffset,
+    /// `vout_gain_error`: the `vout` reading's relative gain error, signed
+    /// ([`Structure::Simulated`] only).
+    VoutGainError,
 }
 
 impl Free {
@@ -165,6 +170,8 @@ impl Free {
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
             Free::SampleDelay => "sample_delay",
+            Free::VoutOffset => "vout_offset",
+            Free::VoutGainError => "vout_gain_error",
         }
     }
 
@@ -177,31 +184,51 @@ impl Free {
         }
     }
 
+    /// The unit of a signed parameter's unknown (an offset or a gain error of a reading, which
+    /// may have either sign and is fitted on a linear scale), `None` for the positive ones.
+    pub fn signed_scale(self) -> Option<f64> {
+        match self {
+            Free::VoutOffset => Some(10e-3),
+            Free::VoutGainError => Some(1e-2),
+            _ => None,
+        }
+    }
+
     /// A fit's unknown for the value `v`: `ln v`, or below a [`Free::ceiling`] `M` the logit
     /// `ln(v/(M − v))`, which is `ln v` less a constant far below the ceiling and never reaches
-    /// it (a log-scale fit had to refuse its steps there: 30 iterations for a DC-bias law).
+    /// it (a log-scale fit had to refuse its steps there: 30 iterations for a DC-bias law), or
+    /// `v` in units of its [`Free::signed_scale`].
     pub fn to_unknown(self, v: f64) -> f64 {
-        match self.ceiling() {
-            Some(m) => (v / (m - v)).ln(),
-            None => v.ln(),
+        match (self.ceiling(), self.signed_scale()) {
+            (_, Some(s)) => v / s,
+            (Some(m), _) => (v / (m - v)).ln(),
+            (None, None) => v.ln(),
         }
     }
 
     /// The value of the unknown `u` (the inverse of [`Free::to_unknown`]).
     pub fn from_unknown(self, u: f64) -> f64 {
-        match self.ceiling() {
-            Some(m) => m / (1.0 + (-u).exp()),
-            None => u.exp(),
+        match (self.ceiling(), self.signed_scale()) {
+            (_, Some(s)) => u * s,
+            (Some(m), _) => m / (1.0 + (-u).exp()),
+            (None, None) => u.exp(),
         }
     }
 
-    /// `d ln v / du` at the unknown `u`: 1 on the log scale, `1 − v/M` below a ceiling (a
-    /// standard deviation of `u` times it is the relative one of the value).
+    /// `d ln |v| / du` at the unknown `u`: 1 on the log scale, `1 − v/M` below a ceiling, `1/|u|`
+    /// on a signed scale (a standard deviation of `u` times it is the relative one of the value).
     pub fn relative_slope(self, u: f64) -> f64 {
-        match self.ceiling() {
-            Some(m) => 1.0 - self.from_unknown(u) / m,
-            None => 1.0,
+        match (self.ceiling(), self.signed_scale()) {
+            (_, Some(_)) => 1.0 / u.abs(),
+            (Some(m), _) => 1.0 - self.from_unknown(u) / m,
+            (None, None) => 1.0,
         }
+    }
+
+    /// A calibration of the vout reading (`vout_offset`, `vout_gain_error`) rather than of the
+    /// circuit.
+    pub fn calibrates_reading(self) -> bool {
+        self.signed_scale().is_some()
     }
 
     /// Whether only [`Structure::Exact`] models this parameter.
@@ -241,6 +268,8 @@ impl Free {
             Free::Isat => p.isat,
             Free::CapDcBias => p.cap_dc_bias,
             Free::SampleDelay => p.sample_delay,
+            Free::VoutOffset => p.vout_offset,
+            Free::VoutGainError => p.vout_gain_error,
         }
     }
 
@@ -264,6 +293,8 @@ impl Free {
             Free::Isat => p.isat = value,
             Free::CapDcBias => p.cap_dc_bias = value,
             Free::SampleDelay => p.sample_delay = value,
+            Free::VoutOffset => p.vout_offset = value,
+            Free::VoutGainError => p.vout_gain_error = value,
         }
     }
 }
@@ -908,6 +939,24 @@ mod tests {
         assert_eq!(Free::Cl.ceiling(), None);
         assert_eq!(Free::Cl.to_unknown(2e-6), 2e-6f64.ln());
         assert_eq!(Free::Cl.relative_slope(-13.0), 1.0);
+    }
+
+    /// A reading's calibration may have either sign: its unknown is the value in units of its
+    /// scale (round trips through zero and below it), its relative slope `|d ln |v|/du|`; a
+    /// circuit value stays on the log scale.
+    #[test]
+    fn a_reading_calibration_is_fitted_on_a_signed_linear_scale() {
+        for f in [Free::VoutOffset, Free::VoutGainError] {
+            assert!(f.calibrates_reading() && f.ceiling().is_none());
+            for v in [-0.05, -1e-4, 0.0, 2e-3, 0.3] {
+                assert!((f.from_unknown(f.to_unknown(v)) - v).abs() < 1e-15, "{f:?} {v}");
+            }
+            let u = f.to_unknown(-0.02);
+            let h = 1e-6;
+            let slope = (f.from_unknown(u + h).abs().ln() - f.from_unknown(u - h).abs().ln()) / (2.0 * h);
+            assert!((f.relative_slope(u) - slope.abs()).abs() < 1e-6 * slope.abs(), "{f:?}: {slope}");
+        }
+        assert!(!Free::Cl.calibrates_reading() && !Free::SampleDelay.calibrates_reading());
     }
 
     /// At low frequency the averaged gain duty → vout is vin (the DC gain of the buck).

@@ -80,7 +80,8 @@ pub enum Criterion {
 }
 
 /// Simulated `vout` at every period start of `data` (or `p.sample_delay` after it) with circuit
-/// values `p`, starting with both capacitors at `v0` volts.
+/// values `p`, starting with both capacitors at `v0` volts, as the reading shows it
+/// (`p.vout_offset`, `p.vout_gain_error`).
 pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, EstimatorError> {
     simulate_outputs(p, data, v0).map(|(vout, _)| vout)
 }
@@ -105,6 +106,8 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
     if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
         return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
+    // What the vout reading makes of the voltage (its gain and zero error).
+    let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
     let mut out = Vec::with_capacity(data.len());
     let mut il = Vec::with_capacity(data.len());
     for k in 0..data.len() {
@@ -112,12 +115,12 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
             // The duty is latched at the period start; the reading comes `late` into it.
             set_inputs(&mut conv, k)?;
             conv.step(late).map_err(plant)?;
-            out.push(conv.outputs().vout);
-            il.push(conv.state().il);
+            out.push(read(conv.outputs().vout));
+            il.push((1.0 + p.il_gain_error) * conv.state().il + p.il_offset);
             conv.step(period - late).map_err(plant)?;
         } else {
-            out.push(conv.outputs().vout);
-            il.push(conv.state().il);
+            out.push(read(conv.outputs().vout));
+            il.push((1.0 + p.il_gain_error) * conv.state().il + p.il_offset);
             set_inputs(&mut conv, k)?;
             conv.step(period).map_err(plant)?;
         }
@@ -139,9 +142,9 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
     p
 }
 
-/// Weight of the measured `il` against `vout` (`σ_vout / σ_il`, each the white noise of its
-/// channel, at least [`NOISE_RESOLUTION`] of its range), or `None` when the data has no `il` or
-/// its noise cannot be told from the data.
+/// How the late reading is pinned on both channels: `il`'s weight against `vout` (`σ_vout /
+/// σ_il`, each the white noise of its channel, at least [`NOISE_RESOLUTION`] of its range), or
+/// `None` when the data has no `il` or its noise cannot be told from the data.
 fn il_weight(data: &DataSet) -> Option<f64> {
     let il = data.il.as_ref()?;
     let sigma = |series: &[f64]| -> Option<f64> {
@@ -153,9 +156,39 @@ fn il_weight(data: &DataSet) -> Option<f64> {
     (weight.is_finite() && weight > 0.0).then_some(weight)
 }
 
+/// The mean of `measured − simulated`: a reading's zero error as least squares sees it.
+pub fn reading_offset(measured: &[f64], simulated: &[f64]) -> f64 {
+    let n = measured.len().min(simulated.len()).max(1) as f64;
+    measured.iter().zip(simulated).map(|(y, s)| y - s).sum::<f64>() / n
+}
+
+/// The zero and gain errors `(offset, gain_error)` that fit `measured` best as
+/// `(1 + gain_error)·simulated + offset` (least squares; the offset alone where the simulated
+/// reading does not vary).
+pub fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
+    let n = measured.len().min(simulated.len()).max(1) as f64;
+    let (my, ms) = (measured.iter().sum::<f64>() / n, simulated.iter().sum::<f64>() / n);
+    let (sxx, sxy) = measured.iter().zip(simulated).fold((0.0, 0.0), |(xx, xy), (y, s)| (xx + (s - ms).powi(2), xy + (s - ms) * (y - my)));
+    if sxx > 0.0 {
+        let gain = sxy / sxx;
+        (my - gain * ms, gain - 1.0)
+    } else {
+        (my - ms, 0.0)
+    }
+}
+
+/// The circuit values `p` with the readings taken as exact but for `vout`'s gain (a model's own
+/// parameter where it has one).
+fn without_offsets(p: Params) -> Params {
+    Params { vout_offset: 0.0, il_offset: 0.0, il_gain_error: 0.0, ..p }
+}
+
 /// Residuals over the criterion samples `BURN_IN..n_est` at the unknowns `[ln θ | v0]`: those of
 /// `vout`, then, with an `il_weight`, those of `il` times the weight; each channel differenced
-/// for [`Criterion::Differenced`] (`None` if the simulation fails).
+/// for [`Criterion::Differenced`] (`None` if the simulation fails). With an `il_weight` (the late
+/// reading pinned on both channels) the readings' calibration is first projected out as a
+/// nuisance: vout's zero error ([`reading_offset`]), il's zero and gain errors
+/// ([`reading_calibration`]).
 fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Option<DVector<f64>> {
     // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
     let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
@@ -166,9 +199,19 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
         return None;
     }
     let v0 = unknowns[free.len()];
-    let (vout, il) = simulate_outputs(&with_logs(start, free, unknowns), estimation, v0).ok()?;
+    let p = with_logs(start, free, unknowns);
+    let pinned = il_weight.is_some();
+    let (vout, il) = simulate_outputs(&if pinned { without_offsets(p) } else { p }, estimation, v0).ok()?;
     let errors = |measured: &[f64], simulated: &[f64], weight: f64| -> Vec<f64> {
-        let e = measured[BURN_IN..].iter().zip(&simulated[BURN_IN..]).map(|(y, s)| weight * (y - s));
+        let (measured, simulated) = (&measured[BURN_IN..], &simulated[BURN_IN..]);
+        // vout's offset; il's offset and gain (a current probe's gain scales il's transients,
+        // amperes after each duty step, which pulled the instant from 92 to 42 ns at 1 %).
+        let (offset, gain) = match (pinned, weight == 1.0) {
+            (false, _) => (0.0, 0.0),
+            (true, true) => (reading_offset(measured, simulated), 0.0),
+            (true, false) => reading_calibration(measured, simulated),
+        };
+        let e = measured.iter().zip(simulated).map(|(y, s)| weight * (y - (1.0 + gain) * s - offset));
         match criterion {
             Criterion::OutputError => e.collect(),
             Criterion::Differenced => e.collect::<Vec<f64>>().windows(2).map(|w| w[1] - w[0]).collect(),
@@ -265,27 +308,51 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
             }))
             .collect();
     }
-    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, None).map_or(f64::INFINITY, |r| r.norm_squared());
+    // The sampling instant, where free and the data has il: pinned on both channels first,
+    // then held (see the module doc).
+    let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
+    // The best start by the criterion of the first fit it goes into: both channels where the
+    // instant is pinned (vout alone can prefer a start whose instant il rules out, from which a
+    // fit on the log scale slides toward zero and stays).
+    let weight = pinned.filter(|_| criterion == Criterion::OutputError).map(|(_, w)| w);
+    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
     let logs = if tries.len() == 1 {
         tries.swap_remove(0)
     } else {
         tries.into_iter().map(|u| (cost_at(&u), u)).min_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, u)| u).unwrap_or_default()
     };
-    // The sampling instant, where free and the data has il: pinned on both channels first,
-    // then held (see the module doc).
-    let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
     let (start, free_rest, logs, delay) = match pinned {
         Some((i, weight)) => {
             // The high-pass refit tests the rest of a model whose instant the output-error fit
             // has pinned: it keeps that instant (held exactly, so without a variance of its own).
-            let (logs, var, iterations) = if criterion == Criterion::Differenced {
-                (logs, 0.0, 0)
+            let (held, logs, var, iterations) = if criterion == Criterion::Differenced {
+                (with_logs(start, free, &logs), logs, 0.0, 0)
             } else {
-                let joint = minimize(start, free, logs, &estimation, criterion, Some(weight))?;
+                // Pinned by what the instant changes, not by the readings' calibration: vout's
+                // zero error and il's zero and gain errors are projected out (see `residuals`).
+                // Read late, il moves by the inductor's slope times the delay, which a current
+                // probe's offset would otherwise stand in for (the slope's change with the duty
+                // tells them apart); vout's level moves with a probe's offset or any unmodelled
+                // drop, which would pull the instant. The model's own vout offset, if any, is
+                // that projection here; its own vout gain is fitted with the rest.
+                let joint_at: Vec<usize> = (0..free.len()).filter(|&k| free[k] != Free::VoutOffset).collect();
+                let joint_free: Vec<Free> = joint_at.iter().map(|&k| free[k]).collect();
+                let joint_logs: Vec<f64> = joint_at.iter().map(|&k| logs[k]).chain([logs[free.len()]]).collect();
+                let joint = minimize(start, &joint_free, joint_logs, &estimation, criterion, Some(weight))?;
                 let (_, cov) = noise_and_covariance(&joint, criterion)?;
-                (joint.logs, cov[(i, i)], joint.iterations)
+                let mut logs = logs;
+                for (k, l) in joint_at.iter().zip(&joint.logs) {
+                    logs[*k] = *l;
+                }
+                logs[free.len()] = joint.logs[joint_free.len()];
+                // The instant is held, with the il reading's calibration that goes with it.
+                let mut held = with_logs(start, free, &logs);
+                let (_, il) = simulate_outputs(&without_offsets(held), &estimation, logs[free.len()])?;
+                let measured = estimation.il.as_deref().unwrap_or_default();
+                (held.il_offset, held.il_gain_error) = reading_calibration(&measured[BURN_IN.min(measured.len())..], &il[BURN_IN..]);
+                let at = joint_at.iter().position(|&k| k == i).unwrap_or_default();
+                (held, logs, cov[(at, at)], joint.iterations)
             };
-            let held = with_logs(start, free, &logs);
             let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
             let rest_logs: Vec<f64> = logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
             (held, rest, rest_logs, Some((i, logs[i], var, iterations)))

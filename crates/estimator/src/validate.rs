@@ -15,10 +15,12 @@ pub const Z_95: f64 = 1.644_854;
 /// Widest ratio of a CI95's bounds for which a positive quantity counts as identified.
 pub const IDENTIFIABLE_SPAN: f64 = 10.0;
 
-/// Whether a CI95 pins a positive quantity down: positive, finite, narrower than a factor of
-/// [`IDENTIFIABLE_SPAN`] (a decade).
+/// Whether a CI95 pins a quantity down: finite, of one sign (zero excluded), its bounds within a
+/// factor of [`IDENTIFIABLE_SPAN`] (a decade). A positive quantity's interval is positive; a
+/// signed one's (an offset) may lie wholly below zero.
 pub fn identified([lo, hi]: [f64; 2]) -> bool {
-    lo > 0.0 && hi.is_finite() && hi < IDENTIFIABLE_SPAN * lo
+    let (near, far) = if hi < 0.0 { (-hi, -lo) } else { (lo, hi) };
+    near > 0.0 && far.is_finite() && far < IDENTIFIABLE_SPAN * near
 }
 
 /// `100·(1 − ‖y − ŷ‖/‖y − ȳ‖)`: 100 % is a perfect fit, 0 % no better than the mean.

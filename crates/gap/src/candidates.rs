@@ -110,7 +110,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
                     let mut fit = judge(name, trial, reference).0;
                     fit.aic += offset;
                     if let Some(late) = late.filter(|_| !not_nested) {
-                        fit.judge_in_il(data, &reference.fit.params, &late, n_est);
+                        fit.judge_in_il(data, &reference.fit.params, &late, n_est, baseline.tolerance);
                     }
                     fit.ruled_out_above = limits.get(name).copied().filter(|_| !fit.significant);
                     fits.push(fit);

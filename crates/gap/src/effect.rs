@@ -12,7 +12,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 16] = [
+pub const EFFECTS: [&str; 18] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -29,7 +29,13 @@ pub const EFFECTS: [&str; 16] = [
     "diode_resistance",
     "switch_node_capacitance",
     "unequal_switches",
+    "sensor_offset",
+    "sensor_gain",
 ];
+
+/// The effects that calibrate the vout reading (its zero and gain errors) rather than change
+/// the circuit: explanations of last resort (see `select::best_material`).
+pub(crate) const READING_EFFECTS: [&str; 2] = ["sensor_offset", "sensor_gain"];
 
 /// Akaike difference below which a model with as many parameters counts as clearly better
 /// (Burnham & Anderson: ΔAIC > 10 leaves essentially no support for the worse model).
@@ -212,11 +218,15 @@ pub(crate) fn il_misses_materially(data: &DataSet, p: &Params, n_est: usize) -> 
 }
 
 /// The share of the measured `il`'s material gap above its own noise floor (held-out samples
-/// from `n_est`) that the late-reading model `late` closes against the model `nominal` [%];
+/// from `n_est`) that the late-reading model `late` closes against the model `nominal` (its il
+/// reading calibrated as `late`'s) [%];
 /// `None` without `il`, without a floor for it, when `nominal` does not miss it materially, or
 /// when the late reading leaves more than [`IL_LEFT_FLOORS`] floors of it.
 fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: usize) -> Option<f64> {
-    let (before, floor, floor_samples) = il_residual(data, nominal, n_est)?;
+    // Against the model with the il reading calibrated as the late model has it: what the
+    // probe's zero and gain errors close is not the late reading's.
+    let nominal = Params { il_offset: late.il_offset, il_gain_error: late.il_gain_error, ..*nominal };
+    let (before, floor, floor_samples) = il_residual(data, &nominal, n_est)?;
     let (after, ..) = il_residual(data, late, n_est)?;
     let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
     // Beyond IL_LEFT_FLOORS the share is not reported: the late reading explains nothing.
@@ -228,10 +238,18 @@ impl EffectFit {
     /// `against`: sets [`EffectFit::il_closed_percent`], and makes it a finding when it explains
     /// the inductor current by itself (at least [`IL_EXPLAINED`] % of its material gap, no more
     /// than [`IL_LEFT_FLOORS`] floors left), identified and inside its range, whatever else
-    /// moves `vout`.
-    pub(crate) fn judge_in_il(&mut self, data: &DataSet, against: &Params, late: &Params, n_est: usize) {
+    /// moves `vout`, so long as it matters to the model: material on `vout`, or moving Cl by more
+    /// than `tolerance` (relative). A reading a fraction of a nanosecond late shows in a clean
+    /// `il` and changes nothing an engineer would act on.
+    pub(crate) fn judge_in_il(&mut self, data: &DataSet, against: &Params, late: &Params, n_est: usize, tolerance: f64) {
         self.il_closed_percent = late_reading_in_il(data, against, late, n_est);
-        self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound;
+        let matters = self.material || (late.cl / against.cl).ln().abs() > tolerance;
+        self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound && matters;
+    }
+
+    /// A calibration of the vout reading ([`READING_EFFECTS`]), not of the circuit.
+    pub(crate) fn calibrates_reading(&self) -> bool {
+        READING_EFFECTS.contains(&self.name)
     }
 
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where
@@ -429,7 +447,7 @@ pub(crate) fn delayed(data: &DataSet, n: usize) -> DataSet {
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
 /// whether the effect switches the half bridge to a diode low side (`dcm`).
-pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 8] = [
+pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
     // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
     // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], dcm: false },
@@ -442,6 +460,11 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 8] = [
     // Not in the design table: data acquired a little after each period start (an ADC that
     // samples late reads vout partway along the ripple, which mimics a different Cl).
     SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 50e-9)], also_from: &[200e-9, 600e-9], dcm: false },
+    // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
+    // zero error and a divider's or an attenuator's gain error (linear in the reading: one
+    // start each, a small step away from zero so the screen sees its direction).
+    SimulatedEffect { name: "sensor_offset", extra: &[(Free::VoutOffset, 1e-3)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "sensor_gain", extra: &[(Free::VoutGainError, 1e-3)], also_from: &[], dcm: false },
 ];
 
 /// A nonlinear effect fitted with the plant simulator.
@@ -490,6 +513,11 @@ impl SimulatedEffect {
         if self.dcm {
             params.insert("dcm".to_string(), 1.0);
         }
+        // A late reading comes with the il reading's calibration, fitted beside it as a nuisance
+        // (no interval of its own: it is not the effect).
+        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) {
+            params.extend(il_calibration(&cand.fit.params));
+        }
         // A bias law is read against the voltages it was fitted for (see `bias_reference`).
         if self.extra.iter().any(|&(f, _)| f == Free::CapDcBias) {
             params.insert("cap_rated_voltage".to_string(), cand.fit.params.cap_rated_voltage);
@@ -497,6 +525,11 @@ impl SimulatedEffect {
         }
         Ok((params, ci95))
     }
+}
+
+/// The il reading's calibration in `p` by its contract names (`il_offset`, `il_gain_error`).
+pub(crate) fn il_calibration(p: &Params) -> [(String, f64); 2] {
+    [("il_offset".to_string(), p.il_offset), ("il_gain_error".to_string(), p.il_gain_error)]
 }
 
 /// The test of Cl's interval.

@@ -22,7 +22,7 @@ use estimator::simulated::{BURN_IN, simulate};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, ClCheck, ClMove, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{Baseline, ClCheck, ClMove, EffectFit, MATERIAL_SHARE, READING_EFFECTS, SIMULATED_EFFECTS, il_calibration, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -119,6 +119,9 @@ impl Stack {
                 for &(f, _) in s.extra {
                     f.set(&mut self.params, param(f.name())?);
                     self.free.push(f);
+                }
+                if let (Some(&offset), Some(&gain)) = (e.params.get("il_offset"), e.params.get("il_gain_error")) {
+                    (self.params.il_offset, self.params.il_gain_error) = (offset, gain);
                 }
             }
         }
@@ -310,8 +313,16 @@ impl Extension {
 /// The significant, material effect with the lowest Akaike criterion that converged inside its
 /// range, a drift within tolerance included: when that drift explains best, the data is
 /// consistent with the nominal values and no other effect should be named in its place.
+///
+/// A reading's calibration (`sensor_offset`, `sensor_gain`) only where no circuit effect is
+/// material: it changes nothing in the circuit, and what it does to the reading a circuit
+/// effect can do too (at a constant load current a resistance's drop and a probe's offset read
+/// alike, and a gain error's slope with the duty mimics a late reading's). The circuit's
+/// explanation is named first; a calibration still material on top of it is the next step's.
 pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) -> &EffectFit) -> Option<T> {
-    items.filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound).min_by(|a, b| fit(a).aic.total_cmp(&fit(b).aic))
+    items
+        .filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound)
+        .min_by(|a, b| (fit(a).calibrates_reading(), fit(a).aic).partial_cmp(&(fit(b).calibrates_reading(), fit(b).aic)).unwrap_or(std::cmp::Ordering::Equal))
 }
 
 /// Least share of the gap above the floor that an extension must promise, linearized, to be
@@ -330,7 +341,7 @@ const SCREEN_KEEP: usize = 2;
 const SCREEN_ROUNDS: usize = 2;
 
 /// The model so far linearized at its fit on the estimation part: its residual, and its
-/// sensitivities to its free parameters (finite differences in `ln θ`), against which an
+/// sensitivities to its free parameters (finite differences in their unknowns, `ln θ` as a rule), against which an
 /// extension's direction (its simulation at the probe values less the model's) is tested.
 struct Linearization {
     est: DataSet,
@@ -346,9 +357,12 @@ impl Linearization {
         let y0 = Self::run(&stack.params, &est)?;
         let r = DVector::from_vec(est.vout[BURN_IN..].to_vec()) - &y0;
         let mut columns = Vec::new();
-        for f in &stack.free {
+        // A late reading that il pins is held while the rest is fitted to vout (see
+        // `estimator::simulated`): no direction of vout's own.
+        let pinned = |f: &Free| *f == Free::SampleDelay && stack.free.len() > 1 && est.il.is_some();
+        for f in stack.free.iter().filter(|f| !pinned(f)) {
             let mut p = stack.params;
-            f.set(&mut p, f.get(&stack.params) * 1e-3f64.exp());
+            f.set(&mut p, f.from_unknown(f.to_unknown(f.get(&stack.params)) + 1e-3));
             columns.push((Self::run(&p, &est)? - &y0) / 1e-3);
         }
         let a = DMatrix::from_columns(&columns);
@@ -447,7 +461,9 @@ pub(crate) fn for_cl(
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
     let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
-    let extensions = stack.extensions(nominal, switched_data, io_mean);
+    // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
+    // it; what makes the output-error and high-pass fits disagree is in the dynamics.
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !READING_EFFECTS.contains(&x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, extensions, variance(&against), 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -538,7 +554,12 @@ pub(crate) fn forward(
     loop {
         let last = selected.last().map_or(f64::NAN, |e| e.rms_after);
         // Without a floor, only the candidates' own judgement ends the sequence.
-        if !baseline.misses_materially(last).unwrap_or(true) {
+        let within = !baseline.misses_materially(last).unwrap_or(true);
+        // vout within its floor while il still shows a late reading: a vout-only explanation (a
+        // probe's gain, a load ESR) can take vout there with the instant, and so Cl, wrong. The
+        // late reading alone is tried then.
+        let late_pending = within && stack.switched && !stack.free.contains(&Free::SampleDelay) && il_misses_materially(data, &stack.params, n_est);
+        if within && !late_pending {
             return (selected, "the gap left is within the noise floor".to_string());
         }
         if selected.len() >= MAX_EFFECTS {
@@ -556,7 +577,7 @@ pub(crate) fn forward(
             let t = x.trial(data, nominal, n_est, holdout).ok()?;
             let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
             if fit.name == "sample_delay" {
-                fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est);
+                fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             }
             Some((fit, cand, x.stack.clone()))
         };
@@ -566,11 +587,18 @@ pub(crate) fn forward(
             // the model so far misses il materially, and first: one the current shows is taken
             // before any circuit effect (as in the first step), so these need no fit then.
             let il_missed = il_misses_materially(data, &stack.params, n_est);
-            let (late, rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
+            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
+            if late_pending {
+                rest.clear();
+            }
             let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
             let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
+        // A reading's calibration is the explanation of last resort (see `best_material`): fitted
+        // only where no circuit extension is material, never as the first-alone shortcut.
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| READING_EFFECTS.contains(&x.name));
+        extensions = circuit;
         // The averaged model's extensions are cheap and unscreened: all at once.
         let batch = if stack.switched { SCREEN_KEEP } else { extensions.len() };
         for _ in 0..SCREEN_ROUNDS {
@@ -593,12 +621,16 @@ pub(crate) fn forward(
                 break;
             }
         }
+        if !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
+            trials.extend(readings.par_iter().take(SCREEN_KEEP).filter_map(try_one).collect::<Vec<_>>());
+        }
         let next = match trials.iter().position(|t| t.0.late_in_il()) {
             Some(k) => trials.into_iter().nth(k),
             None => best_material(trials.into_iter(), |t| &t.0),
         };
         let Some((fit, cand, extended)) = next else {
-            return (selected, "no further effect is a finding".to_string());
+            let why = if late_pending { "the gap left is within the noise floor" } else { "no further effect is a finding" };
+            return (selected, why.to_string());
         };
         if !fit.finding {
             return (selected, format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN)));
@@ -614,6 +646,10 @@ pub(crate) fn forward(
 /// they are fitted together (a diode drop found first absorbs a series resistance found later).
 fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nominal: &Params) {
     for e in selected.iter_mut() {
+        // A late reading's nuisances (the il reading's calibration) as the final fit has them.
+        if e.params.contains_key("il_offset") {
+            e.params.extend(il_calibration(&last.fit.params));
+        }
         let keys: Vec<String> = e.ci95.keys().cloned().collect();
         for key in keys {
             let (name, offset) = match key.as_str() {
