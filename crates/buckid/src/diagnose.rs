@@ -174,7 +174,11 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
         .params
         .iter()
         .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm")
-        .map(|(k, v)| format!("{k} = {}", with_ci(*v, e.ci95.get(k).copied(), unit_of(k))))
+        .map(|(k, v)| {
+            // A reading's gain error reads as a percentage.
+            let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
+            format!("{k} = {}", with_ci(v * scale, e.ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
+        })
         .collect();
     if let Some(d) = e.drift_percent {
         out.push(format!("{d:+.2} % from nominal"));

@@ -213,7 +213,12 @@ impl Stack {
             let probe = p.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0];
             out.push(self.freeing("switch_node_capacitance", Free::SwitchNodeCapacitance, &SWITCH_NODE_CAPACITANCE_STARTS, probe));
         }
-        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop"))) {
+        // A reading's calibration is judged against the circuit as designed (its values may
+        // have drifted), read as the data was taken (a late reading, the other calibration): on
+        // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
+        // knee in DCM took a 2 % gain error on top of a diode drop).
+        let measurement_only = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || READING_EFFECTS.contains(n));
+        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop")) && (measurement_only || !READING_EFFECTS.contains(&e.name))) {
             let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
             s.params = starts[0];
@@ -595,10 +600,13 @@ pub(crate) fn forward(
             let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
-        // A reading's calibration is the explanation of last resort (see `best_material`): fitted
-        // only where no circuit extension is material, never as the first-alone shortcut.
+        // A reading's calibration is the explanation of last resort (see `best_material`): never
+        // the first-alone shortcut below, fitted beside the first round's other fits (the most
+        // promising of them), and chosen only where no circuit extension is material.
         let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| READING_EFFECTS.contains(&x.name));
         extensions = circuit;
+        let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
+        let mut settled = false;
         // The averaged model's extensions are cheap and unscreened: all at once.
         let batch = if stack.switched { SCREEN_KEEP } else { extensions.len() };
         for _ in 0..SCREEN_ROUNDS {
@@ -611,18 +619,20 @@ pub(crate) fn forward(
             // their fits (a bias law or a saturation knee costs ten times a resistance's) are saved.
             let (head, rest) = fits.split_at(if stack.switched { fits.len().min(1) } else { 0 });
             let first: Vec<_> = head.iter().filter_map(try_one).collect();
-            let settled = first.iter().any(|t| t.0.finding && baseline.misses_materially(t.0.rms_after) == Some(false));
+            settled = first.iter().any(|t| t.0.finding && baseline.misses_materially(t.0.rms_after) == Some(false));
             trials.extend(first);
             if !settled {
-                trials.extend(rest.par_iter().filter_map(try_one).collect::<Vec<_>>());
+                let calibrations = std::mem::take(&mut readings);
+                trials.extend(rest.par_iter().chain(calibrations.par_iter()).filter_map(try_one).collect::<Vec<_>>());
             }
             // Another round only behind a change of the switching, and while nothing is material.
             if !fits.iter().any(Extension::changes_switching) || best_material(trials.iter(), |t| &t.0).is_some() {
                 break;
             }
         }
-        if !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
-            trials.extend(readings.par_iter().take(SCREEN_KEEP).filter_map(try_one).collect::<Vec<_>>());
+        // Where no round fitted them (no circuit extension was screened in).
+        if !settled && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
+            trials.extend(readings.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
         let next = match trials.iter().position(|t| t.0.late_in_il()) {
             Some(k) => trials.into_iter().nth(k),

@@ -17,7 +17,8 @@ fs = 330 kHz, trailing-edge PWM latched per period):
 * optional: resistor in series with Cl (``load_esr``), inductance in the C branch (``esl``),
   a smoothly saturating inductor (``sat``/``isat``), a load capacitor losing capacitance with
   voltage (``dcbias``/``vrated``), L/C/Rc off nominal (pass the changed value), a resistive
-  load (``--rload``).
+  load (``--rload``), probes with gain and zero errors (``--vout-gain``, ``--vout-offset``,
+  ``--il-gain``, ``--il-offset``: each reading is ``(1 + gain)*signal + offset``, noise included).
 
 The CSV carries only ``# fs`` and ``# U`` (and ``# rload`` for a resistive load): nothing that
 names the circuit or its effects. ``--truth FILE.json`` writes everything the run used.
@@ -343,6 +344,10 @@ def parser():
     add("--adc-delay", type=float, default=100e-9, help="ADC sample delay after period start [s]")
     add("--noise-vout", type=float, default=2e-3, help="noise sigma on vout [V]")
     add("--noise-il", type=float, default=5e-3, help="noise sigma on il [A]")
+    add("--vout-gain", type=float, default=0.0, help="gain error of the vout probe (vout read as (1+g)*vout + offset)")
+    add("--vout-offset", type=float, default=0.0, help="zero error of the vout probe [V]")
+    add("--il-gain", type=float, default=0.0, help="gain error of the current probe")
+    add("--il-offset", type=float, default=0.0, help="zero error of the current probe [A]")
     add("--steps", type=int, default=100, help="max time step = T/steps")
     add("--max-step", type=float, default=None)
     add("--reltol", type=float, default=1e-4)
@@ -362,6 +367,9 @@ def generate(a):
     rng = np.random.default_rng(a.seed)
     vout = vout + rng.normal(0.0, a.noise_vout, len(vout))
     il = il + rng.normal(0.0, a.noise_il, len(il))
+    # The probes' calibration: what a scope or an ADC chain makes of the (noisy) signals.
+    vout = (1.0 + a.vout_gain) * vout + a.vout_offset
+    il = (1.0 + a.il_gain) * il + a.il_offset
     T = 1.0 / a.fs
     io = np.zeros(len(duty)) if a.rload else np.full(len(duty), a.io)
     meta = [f"# fs = {f(a.fs)}", f"# U = {f(a.U)}"]

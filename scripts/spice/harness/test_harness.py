@@ -168,3 +168,18 @@ def test_behavioural_elements_keep_the_dc_value():
     got = mean_vout(args("--topology", "sw", "--io", str(io), "--sat", "0.2", "--isat", "2.2",
                          "--dcbias", "0.4", "--esl", "1e-9", "--load-esr", "0.02"))
     assert abs(got - (D * U - io * (RL + RON))) < 2e-3
+
+
+def test_probes_scale_and_shift_the_noisy_readings(tmp_path):
+    """A probe's gain and zero error act on what is read, noise included: same seed, same run,
+    each column is (1 + gain)*reading + offset of the plain one."""
+    base = ["--topology", "sw", "--io", "2", "--periods", "20", "--warmup", "20"]
+    plain, probed = tmp_path / "plain.csv", tmp_path / "probed.csv"
+    harness.main(base + ["--out", str(plain)])
+    harness.main(base + ["--vout-gain", "0.01", "--vout-offset", "0.005", "--il-gain", "-0.02", "--il-offset", "0.03",
+                         "--out", str(probed)])
+    a = np.genfromtxt(plain, delimiter=",", names=True, comments="#")
+    b = np.genfromtxt(probed, delimiter=",", names=True, comments="#")
+    np.testing.assert_allclose(b["vout"], 1.01 * a["vout"] + 0.005, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b["il"], 0.98 * a["il"] + 0.03, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(b["duty"], a["duty"])
