@@ -646,6 +646,9 @@ pub(crate) fn forward(
             return (selected, format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN)));
         }
         stack = Stack { params: cand.fit.params, ..extended };
+        // The extension's stack holds the effect's parameters; its name goes with them (what the
+        // next step may offer depends on it: a diode's refinements, no second load ESR).
+        stack.effects.push(fit.name);
         selected.push(fit);
         at_final_values(&mut selected, &cand, nominal);
         fitted = Some(cand);
