@@ -503,6 +503,22 @@ mod tests {
     use super::*;
     use crate::experiment::{Experiment, ModelPlant, run};
 
+    /// A reading's calibration by least squares: a scaled and shifted copy of a varying signal
+    /// gives its gain and offset back exactly; a constant one, the offset alone; an empty one,
+    /// nothing (no NaN).
+    #[test]
+    fn a_reading_calibration_is_recovered_by_least_squares() {
+        let simulated: Vec<f64> = (0..500).map(|k| (k as f64 * 0.07).sin() + 2.0).collect();
+        let measured: Vec<f64> = simulated.iter().map(|s| 1.03 * s - 0.05).collect();
+        let (offset, gain) = reading_calibration(&measured, &simulated);
+        assert!((offset + 0.05).abs() < 1e-12 && (gain - 0.03).abs() < 1e-12, "{offset} {gain}");
+        assert!((reading_offset(&measured, &simulated) - (0.03 * 2.0 - 0.05)).abs() < 0.01);
+        let flat = vec![3.0; 10];
+        let (offset, gain) = reading_calibration(&[3.2; 10], &flat);
+        assert!((offset - 0.2).abs() < 1e-12 && gain == 0.0, "{offset} {gain}");
+        assert_eq!(reading_calibration(&[], &[]), (0.0, 0.0));
+    }
+
     /// On data from the switched plant with a diode (DCM every period at 1 A), the simulated
     /// model recovers `Cl` and the diode drop inside their CI95, where the period map is not
     /// affine.
