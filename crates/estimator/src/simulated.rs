@@ -142,9 +142,9 @@ fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
     p
 }
 
-/// How the late reading is pinned on both channels: `il`'s weight against `vout` (`σ_vout /
-/// σ_il`, each the white noise of its channel, at least [`NOISE_RESOLUTION`] of its range), or
-/// `None` when the data has no `il` or its noise cannot be told from the data.
+/// Weight of the measured `il` against `vout` (`σ_vout / σ_il`, each the white noise of its
+/// channel, at least [`NOISE_RESOLUTION`] of its range), or `None` when the data has no `il` or
+/// its noise cannot be told from the data.
 fn il_weight(data: &DataSet) -> Option<f64> {
     let il = data.il.as_ref()?;
     let sigma = |series: &[f64]| -> Option<f64> {
@@ -157,7 +157,7 @@ fn il_weight(data: &DataSet) -> Option<f64> {
 }
 
 /// The mean of `measured − simulated`: a reading's zero error as least squares sees it.
-pub fn reading_offset(measured: &[f64], simulated: &[f64]) -> f64 {
+fn reading_offset(measured: &[f64], simulated: &[f64]) -> f64 {
     let n = measured.len().min(simulated.len()).max(1) as f64;
     measured.iter().zip(simulated).map(|(y, s)| y - s).sum::<f64>() / n
 }
@@ -165,7 +165,7 @@ pub fn reading_offset(measured: &[f64], simulated: &[f64]) -> f64 {
 /// The zero and gain errors `(offset, gain_error)` that fit `measured` best as
 /// `(1 + gain_error)·simulated + offset` (least squares; the offset alone where the simulated
 /// reading does not vary).
-pub fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
+fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
     let n = measured.len().min(simulated.len()).max(1) as f64;
     let (my, ms) = (measured.iter().sum::<f64>() / n, simulated.iter().sum::<f64>() / n);
     let (sxx, sxy) = measured.iter().zip(simulated).fold((0.0, 0.0), |(xx, xy), (y, s)| (xx + (s - ms).powi(2), xy + (s - ms) * (y - my)));
@@ -176,6 +176,9 @@ pub fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
         (my - ms, 0.0)
     }
 }
+
+/// A reading's `(offset, gain_error)` fitted to its measurement.
+type Calibration = fn(&[f64], &[f64]) -> (f64, f64);
 
 /// The circuit values `p` with the readings taken as exact but for `vout`'s gain (a model's own
 /// parameter where it has one).
@@ -202,24 +205,22 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
     let p = with_logs(start, free, unknowns);
     let pinned = il_weight.is_some();
     let (vout, il) = simulate_outputs(&if pinned { without_offsets(p) } else { p }, estimation, v0).ok()?;
-    let errors = |measured: &[f64], simulated: &[f64], weight: f64| -> Vec<f64> {
+    // Each channel's calibration where pinned: vout's offset; il's offset and gain (a current
+    // probe's gain scales il's transients, amperes after each duty step, which pulled the
+    // instant from 92 to 42 ns at 1 %).
+    let vout_calibration: Calibration = |m, s| (reading_offset(m, s), 0.0);
+    let errors = |measured: &[f64], simulated: &[f64], weight: f64, calibration: Calibration| -> Vec<f64> {
         let (measured, simulated) = (&measured[BURN_IN..], &simulated[BURN_IN..]);
-        // vout's offset; il's offset and gain (a current probe's gain scales il's transients,
-        // amperes after each duty step, which pulled the instant from 92 to 42 ns at 1 %).
-        let (offset, gain) = match (pinned, weight == 1.0) {
-            (false, _) => (0.0, 0.0),
-            (true, true) => (reading_offset(measured, simulated), 0.0),
-            (true, false) => reading_calibration(measured, simulated),
-        };
+        let (offset, gain) = if pinned { calibration(measured, simulated) } else { (0.0, 0.0) };
         let e = measured.iter().zip(simulated).map(|(y, s)| weight * (y - (1.0 + gain) * s - offset));
         match criterion {
             Criterion::OutputError => e.collect(),
             Criterion::Differenced => e.collect::<Vec<f64>>().windows(2).map(|w| w[1] - w[0]).collect(),
         }
     };
-    let mut r = errors(&estimation.vout, &vout, 1.0);
+    let mut r = errors(&estimation.vout, &vout, 1.0, vout_calibration);
     if let (Some(w), Some(measured)) = (il_weight, estimation.il.as_ref()) {
-        r.extend(errors(measured, &il, w));
+        r.extend(errors(measured, &il, w, reading_calibration));
     }
     Some(DVector::from_vec(r))
 }

@@ -33,9 +33,11 @@ pub const EFFECTS: [&str; 18] = [
     "sensor_gain",
 ];
 
-/// The effects that calibrate the vout reading (its zero and gain errors) rather than change
-/// the circuit: explanations of last resort (see `select::best_material`).
-pub(crate) const READING_EFFECTS: [&str; 2] = ["sensor_offset", "sensor_gain"];
+/// Whether the effect `name` calibrates the vout reading (its zero or gain error) rather than
+/// changes the circuit: an explanation of last resort (see `select::best_material`).
+pub(crate) fn calibrates_reading(name: &str) -> bool {
+    matches!(name, "sensor_offset" | "sensor_gain")
+}
 
 /// Akaike difference below which a model with as many parameters counts as clearly better
 /// (Burnham & Anderson: ΔAIC > 10 leaves essentially no support for the worse model).
@@ -247,9 +249,9 @@ impl EffectFit {
         self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound && matters;
     }
 
-    /// A calibration of the vout reading ([`READING_EFFECTS`]), not of the circuit.
+    /// A calibration of the vout reading ([`calibrates_reading`]), not of the circuit.
     pub(crate) fn calibrates_reading(&self) -> bool {
-        READING_EFFECTS.contains(&self.name)
+        calibrates_reading(self.name)
     }
 
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where

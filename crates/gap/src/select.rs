@@ -22,7 +22,7 @@ use estimator::simulated::{BURN_IN, simulate};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, ClCheck, ClMove, EffectFit, MATERIAL_SHARE, READING_EFFECTS, SIMULATED_EFFECTS, il_calibration, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{Baseline, ClCheck, ClMove, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, calibrates_reading, il_calibration, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -217,8 +217,8 @@ impl Stack {
         // have drifted), read as the data was taken (a late reading, the other calibration): on
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
         // knee in DCM took a 2 % gain error on top of a diode drop).
-        let measurement_only = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || READING_EFFECTS.contains(n));
-        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop")) && (measurement_only || !READING_EFFECTS.contains(&e.name))) {
+        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || calibrates_reading(n));
+        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop")) && (as_designed || !calibrates_reading(e.name))) {
             let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
             s.params = starts[0];
@@ -468,7 +468,7 @@ pub(crate) fn for_cl(
     let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
     // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
     // it; what makes the output-error and high-pass fits disagree is in the dynamics.
-    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !READING_EFFECTS.contains(&x.name)).collect();
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, extensions, variance(&against), 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -603,7 +603,7 @@ pub(crate) fn forward(
         // A reading's calibration is the explanation of last resort (see `best_material`): never
         // the first-alone shortcut below, fitted beside the first round's other fits (the most
         // promising of them), and chosen only where no circuit extension is material.
-        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| READING_EFFECTS.contains(&x.name));
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name));
         extensions = circuit;
         let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
         let mut settled = false;
