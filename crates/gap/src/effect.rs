@@ -176,6 +176,14 @@ pub struct EffectFit {
 }
 
 impl EffectFit {
+    /// Its name, with the value it frees where the name alone does not say (`param_drift (Rc)`).
+    pub fn label(&self) -> String {
+        match self.params.keys().find(|k| k.ends_with("_nominal")) {
+            Some(k) => format!("{} ({})", self.name, k.trim_end_matches("_nominal")),
+            None => self.name.to_string(),
+        }
+    }
+
     /// Its standing in words: `finding`, `within tolerance`, `significant, immaterial`,
     /// `not significant` or `not identifiable`.
     pub fn standing(&self) -> &'static str {

@@ -5,7 +5,9 @@
 //! refits the model built so far ([`Stack`]: the nominal circuit with the selected effects at
 //! their fitted values, their parameters free), fits every remaining effect on top of it, and
 //! adds the best *finding* (significant, material, outside tolerance; lowest Akaike criterion).
-//! It stops when no candidate is a finding or the gap left is no longer material.
+//! It stops when no candidate is a finding or the gap left is no longer material. Where nothing
+//! adds but an effect displaced one taken before it (greedy selection took a stand-in), the
+//! model with the newcomer in the stand-in's place is judged as a step of its own ([`Swap`]).
 //!
 //! On switched data every step after the first is fitted with the plant simulator (the
 //! grey-box effects too: a series resistance is `RL` free, a drift `L`, `C` or `Rc` free), so
@@ -187,10 +189,10 @@ impl Stack {
         if !self.free.contains(&Free::RL) && !has("switch_resistance") {
             out.push(self.freeing("switch_resistance", Free::RL, &RESISTANCE_STARTS.map(|r| p.rl + r), p.rl + PROBE_RESISTANCE));
         }
-        if !has("param_drift") {
-            for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
-                out.push(self.freeing("param_drift", f, &DRIFT_STARTS.map(|k| k * f.get(nominal)), f.get(p) * (1.0 + PROBE_DRIFT)));
-            }
+        // Each "known" value drifts on its own (a real inductor's ±20 % and a capacitor's ESR
+        // at once): one drift in the model does not rule out another.
+        for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
+            out.push(self.freeing("param_drift", f, &DRIFT_STARTS.map(|k| k * f.get(nominal)), f.get(p) * (1.0 + PROBE_DRIFT)));
         }
         if self.delay == 0 {
             for n in 1..=2 {
@@ -240,6 +242,34 @@ fn refinement(name: &str) -> Option<Free> {
     }
 }
 
+/// Why an extension gives no trial.
+#[derive(Debug)]
+enum TrialError {
+    /// It replaces rather than adds: this free parameter of an effect already in the model is
+    /// no longer identified beside it (a swap may be tried, see [`Swap`]).
+    Displaces(Free),
+    /// Its fit failed or its own parameters are not identified (why, for a reader's `{:?}`).
+    Failed(#[expect(dead_code, reason = "no caller reports why a trial failed; kept for debugging a selection")] String),
+}
+
+impl From<String> for TrialError {
+    fn from(why: String) -> Self {
+        Self::Failed(why)
+    }
+}
+
+/// An extension that displaced an effect already selected: the effect `name` adding `added`,
+/// and the displaced free parameter `lost`. Greedy selection can take a stand-in first (a
+/// capacitor's drift and a load ESR for an ESR that drifted, with the switches' resistance),
+/// after which the true effect only displaces it: the model with the stand-in swapped out is
+/// fitted and judged like any other step.
+#[derive(Debug, Clone, PartialEq)]
+struct Swap {
+    name: &'static str,
+    added: Vec<Free>,
+    lost: Free,
+}
+
 /// One effect on top of a model: the extended model and its start values.
 struct Extension {
     name: &'static str,
@@ -258,17 +288,25 @@ impl Extension {
         self.not_nested || matches!(self.name, "diode_drop" | "dcm" | "dead_time" | "delay")
     }
 
+    /// The free parameters it adds to the model it extends.
+    fn added(&self) -> &[Free] {
+        &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..]
+    }
+
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
-    fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, String> {
+    fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, TrialError> {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
         // An effect added on top must leave the ones before it in place: when one of theirs is
         // no longer pinned down, the newcomer replaces rather than adds.
-        let added = &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..];
+        let added = self.added();
         if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1])) {
             if added.iter().any(|f| f.name() == lost.name) {
-                return Err(format!("{}: `{}` not identified", self.name, lost.name));
+                return Err(format!("{}: `{}` not identified", self.name, lost.name).into());
             }
-            return Err(format!("{} displaces `{}` (no longer identified)", self.name, lost.name));
+            return Err(match self.stack.free.iter().find(|f| f.name() == lost.name) {
+                Some(&f) => TrialError::Displaces(f),
+                None => format!("{} displaces `{}` (no longer identified)", self.name, lost.name).into(),
+            });
         }
         let estimate = |f: Free| cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()));
         let mut params = BTreeMap::new();
@@ -285,11 +323,11 @@ impl Extension {
                 params.insert(key.to_string(), e.value - nominal.rl);
                 ci95.insert(key.to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl]);
                 if e.value <= base {
-                    return Err(format!("the fitted series resistance {:.2} mΩ is not above the model's {:.2} mΩ: none is added", e.value * 1e3, base * 1e3));
+                    return Err(format!("the fitted series resistance {:.2} mΩ is not above the model's {:.2} mΩ: none is added", e.value * 1e3, base * 1e3).into());
                 }
             }
             "param_drift" => {
-                let f = *added.first().ok_or("param_drift frees nothing")?;
+                let f = *added.first().ok_or_else(|| "param_drift frees nothing".to_string())?;
                 let e = estimate(f)?;
                 params.insert(f.name().to_string(), e.value);
                 params.insert(format!("{}_nominal", f.name()), f.get(nominal));
@@ -301,7 +339,7 @@ impl Extension {
             }
             // One parameter reported under its own name.
             name if name == "switch_resistance" || refinement(name).is_some() => {
-                let f = *added.first().ok_or("nothing freed")?;
+                let f = *added.first().ok_or_else(|| "nothing freed".to_string())?;
                 let e = estimate(f)?;
                 params.insert(f.name().to_string(), e.value);
                 ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
@@ -530,7 +568,7 @@ pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<Effe
     end.closed_percent = baseline.closed_percent(end.rms_after);
     end.cl = ClMove::of(&cand, baseline.cl);
     at_final_values(selected, &cand, nominal);
-    Some(format!("{} dropped: given the others it closes {share:.1} % of the gap they leave", dropped.name))
+    Some(format!("{} dropped: given the others it closes {share:.1} % of the gap they leave", dropped.label()))
 }
 
 /// Forward selection from the first finding `first`: the findings in the order they were
@@ -556,7 +594,8 @@ pub(crate) fn forward(
         Err(e) => return (selected, format!("no further step: {e}")),
     };
     let mut fitted: Option<Candidate> = None;
-    loop {
+    let (mut swaps_left, mut notes) = (MAX_SWAPS, Vec::new());
+    let why = loop {
         let last = selected.last().map_or(f64::NAN, |e| e.rms_after);
         // Without a floor, only the candidates' own judgement ends the sequence.
         let within = !baseline.misses_materially(last).unwrap_or(true);
@@ -565,21 +604,27 @@ pub(crate) fn forward(
         // late reading alone is tried then.
         let late_pending = within && stack.switched && !stack.free.contains(&Free::SampleDelay) && il_misses_materially(data, &stack.params, n_est);
         if within && !late_pending {
-            return (selected, "the gap left is within the noise floor".to_string());
+            break "the gap left is within the noise floor".to_string();
         }
         if selected.len() >= MAX_EFFECTS {
-            return (selected, format!("{MAX_EFFECTS} effects selected, the most a sequence holds"));
+            break format!("{MAX_EFFECTS} effects selected, the most a sequence holds");
         }
         // The model so far: the fit that added its last effect, or, for the first (fitted as a
         // candidate), refitted in the form its extensions take.
         let against = match fitted.take().map_or_else(|| stack.fit(data, &[stack.params], n_est, holdout), Ok) {
             Ok(c) => c,
-            Err(e) => return (selected, format!("the model so far cannot be refitted: {e}")),
+            Err(e) => break format!("the model so far cannot be refitted: {e}"),
         };
         stack.params = against.fit.params;
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
+        let displaced = std::sync::Mutex::new(Vec::new());
         let try_one = |x: &Extension| {
-            let t = x.trial(data, nominal, n_est, holdout).ok()?;
+            let t = x.trial(data, nominal, n_est, holdout);
+            if let Err(TrialError::Displaces(lost)) = &t {
+                let swap = Swap { name: x.name, added: x.added().to_vec(), lost: *lost };
+                displaced.lock().map(|mut d| d.push(swap)).ok();
+            }
+            let t = t.ok()?;
             let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
             if fit.name == "sample_delay" {
                 fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
@@ -638,12 +683,26 @@ pub(crate) fn forward(
             Some(k) => trials.into_iter().nth(k),
             None => best_material(trials.into_iter(), |t| &t.0),
         };
+        // Nothing adds, yet an effect replaced one already taken: that swap, when it is a finding.
+        let next = match next {
+            None if swaps_left > 0 && !late_pending => {
+                let tried = displaced.into_inner().unwrap_or_default();
+                let swapped = swap(data, nominal, &selected, &stack, &tried, &against, switched_data, io_mean, n_est, holdout, baseline);
+                swapped.map(|(k, t)| {
+                    swaps_left -= 1;
+                    let out = selected.remove(k);
+                    notes.push(format!("{} replaced {} (taken before it, a stand-in)", t.0.label(), out.label()));
+                    t
+                })
+            }
+            next => next,
+        };
         let Some((fit, cand, extended)) = next else {
             let why = if late_pending { "the gap left is within the noise floor" } else { "no further effect is a finding" };
-            return (selected, why.to_string());
+            break why.to_string();
         };
         if !fit.finding {
-            return (selected, format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN)));
+            break format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN));
         }
         stack = Stack { params: cand.fit.params, ..extended };
         // The extension's stack holds the effect's parameters; its name goes with them (what the
@@ -652,7 +711,57 @@ pub(crate) fn forward(
         selected.push(fit);
         at_final_values(&mut selected, &cand, nominal);
         fitted = Some(cand);
+    };
+    notes.push(why);
+    (selected, notes.join("; "))
+}
+
+/// Most swaps in a sequence ([`Swap`]).
+const MAX_SWAPS: usize = 2;
+
+/// The best of the swaps `tried` (each at most once): the selected effect owning the displaced
+/// parameter taken out of the model so far (`stack`, fitted as `against`), the newcomer fitted
+/// in its place and judged against `against` as a model not nested in it. Returns the index in
+/// `selected` of the effect it replaces, and the newcomer's fit, candidate and model. An effect
+/// found in il is never swapped out (its evidence is not in vout).
+#[allow(clippy::too_many_arguments)]
+fn swap(
+    data: &DataSet,
+    nominal: &Params,
+    selected: &[EffectFit],
+    stack: &Stack,
+    tried: &[Swap],
+    against: &Candidate,
+    switched_data: bool,
+    io_mean: f64,
+    n_est: usize,
+    holdout: f64,
+    baseline: &Baseline,
+) -> Option<(usize, (EffectFit, Candidate, Stack))> {
+    let owner = |lost: Free| {
+        let key = if lost == Free::RL { "series_resistance" } else { lost.name() };
+        selected.iter().position(|e| e.params.contains_key(key) && !e.late_in_il())
+    };
+    let mut unique: Vec<&Swap> = Vec::new();
+    for s in tried {
+        if !unique.contains(&s) {
+            unique.push(s);
+        }
     }
+    let swaps: Vec<(usize, (EffectFit, Candidate, Stack))> = unique
+        .into_par_iter()
+        .filter_map(|s| {
+            let k = owner(s.lost)?;
+            let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
+            let base = Stack::of(&others, nominal, stack.params.cl, stack.switched).ok()?;
+            let x = base.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
+            let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
+            t.not_nested = true;
+            let (fit, cand) = judge(x.name, t, against, n_est, baseline);
+            fit.finding.then_some((k, (fit, cand, x.stack)))
+        })
+        .collect();
+    best_material(swaps.into_iter(), |s| &s.1.0)
 }
 
 /// Sets every selected effect's parameters (and CI95) to their values in the final model, where

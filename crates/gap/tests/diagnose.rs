@@ -209,6 +209,23 @@ fn a_dead_time_with_a_switch_node_capacitance_is_found() {
     assert_final_cl_holds(&dx, CL);
 }
 
+/// A capacitor whose ESR drifted 17 % low and 33 mΩ switches at 0.6 A, Cl 4.5 µF (a harness set
+/// the bench drew): greedy selection takes stand-ins first (C drifted, then a load ESR for the
+/// ESR), on which the true drift only displaces the load ESR. The swap puts the ESR's drift in
+/// the stand-in's place; both effects end up named near their values, and Cl's interval holds.
+#[test]
+fn a_drifted_esr_replaces_its_stand_in() {
+    let cl = 4.5e-6;
+    let c = plant(Params { cl, rc: 0.083, switch_resistance: 0.033, ..Params::default() }, Mode::Switched);
+    let dx = diagnose_switched(&data_at(c, 0.6));
+    let labels: Vec<String> = dx.selected.iter().map(|e| e.label()).collect();
+    assert!(labels.contains(&"param_drift (Rc)".to_string()) && labels.contains(&"switch_resistance".to_string()), "{labels:?}: {}", dx.selection_ended);
+    assert!(!labels.contains(&"load_esr".to_string()), "{labels:?}: {}", dx.selection_ended);
+    let rc = dx.selected.iter().find_map(|e| e.params.get("Rc")).unwrap();
+    assert!((rc / 0.083 - 1.0).abs() < 0.02, "Rc {rc}");
+    assert_final_cl_holds(&dx, cl);
+}
+
 /// A half bridge with unequal switches (40 mΩ high side, 12 mΩ low side) at 3 A: the
 /// switches' resistance first, then the low side's own, near its ratio, and Cl's interval holds.
 #[test]
