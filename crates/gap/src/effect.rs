@@ -184,6 +184,17 @@ impl EffectFit {
         }
     }
 
+    /// Takes the step's figures (residual, shrink, gap closed, Cl) from `cand`, the fit of the
+    /// model that ends with it.
+    pub(crate) fn step_from(&mut self, cand: &Candidate, baseline: &Baseline) {
+        self.residual = residual(cand);
+        self.rms_after = rms(&self.residual);
+        self.nrmse_after = held_out_nrmse(cand);
+        self.shrink_percent = baseline.shrink_percent(self.nrmse_after);
+        self.closed_percent = baseline.closed_percent(self.rms_after);
+        self.cl = ClMove::of(cand, baseline.cl);
+    }
+
     /// Its standing in words: `finding`, `within tolerance`, `significant, immaterial`,
     /// `not significant` or `not identifiable`.
     pub fn standing(&self) -> &'static str {

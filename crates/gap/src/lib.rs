@@ -11,6 +11,7 @@
 mod candidates;
 mod consistency;
 mod effect;
+mod joint;
 mod limits;
 mod locate;
 mod options;
@@ -185,6 +186,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
         selection_ended = format!("{selection_ended}; then {dropped}");
+    }
+    if let Some(joint) = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
+        selection_ended = format!("{selection_ended}; then {joint}");
     }
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.

@@ -24,7 +24,7 @@ use estimator::simulated::{BURN_IN, simulate};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, ClCheck, ClMove, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, calibrates_reading, il_calibration, Trial, delayed, held_out_nrmse, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{Baseline, ClCheck, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, calibrates_reading, il_calibration, Trial, delayed, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 const MAX_EFFECTS: usize = 4;
@@ -139,7 +139,7 @@ impl Stack {
     /// Fits the free parameters from the best of `starts`: with the plant simulator on switched
     /// data (Cl from the model it extends, already fitted), else with the averaged grey-box
     /// model (from a grid over Cl and the free magnitudes).
-    fn fit(&self, data: &DataSet, starts: &[Params], n_est: usize, holdout: f64) -> Result<Candidate, String> {
+    pub(crate) fn fit(&self, data: &DataSet, starts: &[Params], n_est: usize, holdout: f64) -> Result<Candidate, String> {
         let data = self.data(data);
         if self.switched {
             return fit_from_exactly(&data, starts, &self.free, n_est, Criterion::OutputError).map_err(|e| e.to_string());
@@ -244,7 +244,7 @@ fn refinement(name: &str) -> Option<Free> {
 
 /// Why an extension gives no trial.
 #[derive(Debug)]
-enum TrialError {
+pub(crate) enum TrialError {
     /// It replaces rather than adds: this free parameter of an effect already in the model is
     /// no longer identified beside it (a swap may be tried, see [`Swap`]).
     Displaces(Free),
@@ -271,7 +271,7 @@ struct Swap {
 }
 
 /// One effect on top of a model: the extended model and its start values.
-struct Extension {
+pub(crate) struct Extension {
     name: &'static str,
     stack: Stack,
     starts: Vec<Params>,
@@ -293,9 +293,24 @@ impl Extension {
         &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..]
     }
 
+    /// The effect `name` of the fitted model `stack` whose free parameters `frees` it owns,
+    /// against that model without it (its `frees` at `without`'s values): the effect as one
+    /// more step on top of all the others.
+    pub(crate) fn within(stack: &Stack, name: &'static str, frees: &[Free], without: Params) -> Self {
+        let mut stack = stack.clone();
+        stack.free.retain(|f| !frees.contains(f));
+        stack.free.extend_from_slice(frees);
+        Extension { name, probe: stack.params, stack, starts: vec![without], extra: frees.len(), not_nested: false }
+    }
+
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
     fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, TrialError> {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
+        self.assess(cand, nominal)
+    }
+
+    /// The effect's parameters (against the nominal circuit `nominal`) in `cand`, its model's fit.
+    pub(crate) fn assess(&self, cand: Candidate, nominal: &Params) -> Result<Trial, TrialError> {
         // An effect added on top must leave the ones before it in place: when one of theirs is
         // no longer pinned down, the newcomer replaces rather than adds.
         let added = self.added();
@@ -560,13 +575,7 @@ pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<Effe
         .collect();
     let (k, share, cand) = without.into_iter().filter(|w| w.1 < MATERIAL_SHARE).min_by(|a, b| a.1.total_cmp(&b.1))?;
     let dropped = selected.remove(k);
-    let end = selected.last_mut()?;
-    end.residual = residual(&cand);
-    end.rms_after = rms(&end.residual);
-    end.nrmse_after = held_out_nrmse(&cand);
-    end.shrink_percent = baseline.shrink_percent(end.nrmse_after);
-    end.closed_percent = baseline.closed_percent(end.rms_after);
-    end.cl = ClMove::of(&cand, baseline.cl);
+    selected.last_mut()?.step_from(&cand, baseline);
     at_final_values(selected, &cand, nominal);
     Some(format!("{} dropped: given the others it closes {share:.1} % of the gap they leave", dropped.label()))
 }

@@ -226,6 +226,26 @@ fn a_drifted_esr_replaces_its_stand_in() {
     assert_final_cl_holds(&dx, cl);
 }
 
+/// A converter as real ones come, five effects at once: dead time (30 ns, 400 pF on the switch
+/// node), 15 mΩ switches, an inductor 12 % low and a capacitor's ESR 40 % low, read 91 ns late.
+/// Greedy selection fills its four steps with stand-ins and still misses; the joint refit names
+/// every effect near its value and Cl's interval holds.
+#[test]
+fn five_effects_at_once_are_named_by_the_joint_refit() {
+    let cl = 10e-6;
+    let p = Params { cl, dead_time: 30e-9, switch_node_capacitance: 400e-12, switch_resistance: 0.015, l: 2.9e-6, rc: 0.06, ..Params::default() };
+    let dx = diagnose_switched(&read_late(p, 3));
+    let labels: Vec<String> = dx.selected.iter().map(|e| e.label()).collect();
+    for effect in ["dead_time", "switch_resistance", "param_drift (L)", "param_drift (Rc)", "sample_delay"] {
+        assert!(labels.iter().any(|l| l == effect), "{effect} not in {labels:?}: {}", dx.selection_ended);
+    }
+    let value = |key: &str| dx.selected.iter().find_map(|e| e.params.get(key).copied()).unwrap();
+    for (key, truth, tolerance) in [("dead_time", 30e-9, 0.05), ("L", 2.9e-6, 0.01), ("Rc", 0.06, 0.02), ("sample_delay", 3e-2 / 330e3, 0.1)] {
+        assert!((value(key) / truth - 1.0).abs() < tolerance, "{key} {:e} for {truth:e}", value(key));
+    }
+    assert_final_cl_holds(&dx, cl);
+}
+
 /// A half bridge with unequal switches (40 mΩ high side, 12 mΩ low side) at 3 A: the
 /// switches' resistance first, then the low side's own, near its ratio, and Cl's interval holds.
 #[test]

@@ -1,0 +1,240 @@
+//! The joint refit: the effects a real converter carries, fitted together, then pruned.
+//!
+//! Forward selection judges each effect on top of those taken before it. A real converter carries
+//! five or six at once (a late ADC, dead time, the switches' resistance, an inductor 12 % low and a
+//! capacitor's ESR 40 % low), and a greedy path through them takes stand-ins that explain a
+//! part of several (a load ESR, C drifted) and ends with a model that still misses materially,
+//! the sequence full. Where it does, the model is refitted with, besides the effects selected,
+//! what every converter of its kind carries free at once: the drifts of L, C and Rc, the
+//! switches' resistance, the late reading (where il is recorded), and, where something conducts
+//! while both switches are off, the switch node's capacitance and a diode's slope resistance.
+//! When that model closes a material share of the gap left, it is pruned one effect at a time:
+//! the one that, given all the others, closes the least of the gap they leave, while it is no
+//! finding (immaterial, a drift within tolerance, not identified, on a bound).
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::identify::Candidate;
+use estimator::model::Free;
+use rayon::prelude::*;
+
+use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, judge, residual, rms};
+use crate::select::{Extension, Stack};
+
+/// An effect of the joint model and the free parameters it owns.
+#[derive(Debug, Clone)]
+struct Group {
+    name: &'static str,
+    frees: Vec<Free>,
+    /// Taken by the forward selection (else added by the joint model).
+    selected: bool,
+}
+
+impl Group {
+    /// Its name, with the value it frees where the name alone does not say.
+    fn label(&self) -> String {
+        match self.frees.as_slice() {
+            [f] if self.name == "param_drift" => format!("param_drift ({})", f.name()),
+            _ => self.name.to_string(),
+        }
+    }
+}
+
+/// The final model's held-out residual, in multiples of the noise floor (RMS), above which the
+/// joint refit is tried: a model error of three times the noise's power is what a sequence of
+/// stand-ins leaves (a harness capture with five effects: 8×), where one that nearly closed the
+/// gap leaves 1.1–1.9× (a diode's exponential knee, a 1 mΩ resistance), which the refit,
+/// costing a round of fits per effect pruned, would not change.
+const MISS_FLOORS: f64 = 2.0;
+
+/// Start values of the effects the joint model adds: the switches' resistance [Ω], the late
+/// reading [s], the switch node's capacitance [F], a diode's slope resistance [Ω].
+const SWITCH_RESISTANCE_START: f64 = 0.005;
+const SAMPLE_DELAY_START: f64 = 50e-9;
+const SWITCH_NODE_CAPACITANCE_START: f64 = 200e-12;
+const DIODE_RESISTANCE_START: f64 = 0.01;
+
+/// An effect of the joint model judged against the model refitted without it.
+struct Without {
+    /// Its index in the groups.
+    k: usize,
+    /// Its fit as a step on top of all the others (`None`: its parameters not identified).
+    fit: Option<EffectFit>,
+    /// The model without it, and that model's fit.
+    less: Stack,
+    against: Candidate,
+}
+
+impl Without {
+    /// How much of the gap the others leave it closes (least first; not identified, or no
+    /// material gap left without it: below all).
+    fn strength(&self) -> f64 {
+        self.fit.as_ref().and_then(|f| f.closed_of_remaining).unwrap_or(f64::NEG_INFINITY)
+    }
+
+    fn finding(&self) -> bool {
+        self.fit.as_ref().is_some_and(|f| f.finding)
+    }
+}
+
+/// The model without `g`: its parameters free no more, at their nominal values (a late
+/// reading's calibration of il with it).
+fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
+    let mut s = stack.clone();
+    s.free.retain(|f| !g.frees.contains(f));
+    for f in &g.frees {
+        f.set(&mut s.params, f.get(nominal));
+    }
+    if g.frees.contains(&Free::SampleDelay) {
+        (s.params.il_offset, s.params.il_gain_error) = (nominal.il_offset, nominal.il_gain_error);
+    }
+    // Without dead time or a diode nothing conducts while both switches are off: the switch
+    // node's capacitance and a diode's slope resistance go with them.
+    if !(s.params.dead_time > 0.0 || s.params.asynchronous() || s.params.dcm) {
+        for f in [Free::SwitchNodeCapacitance, Free::DiodeResistance] {
+            s.free.retain(|&x| x != f);
+            f.set(&mut s.params, f.get(nominal));
+        }
+    }
+    s
+}
+
+/// `g` judged on top of the model without it (`less`, fitted as `against`) in the model `with`
+/// (fitted as `cand`): `None` when its parameters are not identified there.
+#[allow(clippy::too_many_arguments)]
+fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Candidate, less: &Stack, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
+    let x = Extension::within(with, g.name, &g.frees, less.params);
+    let t = x.assess(cand.clone(), nominal).ok()?;
+    let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
+    if g.name == "sample_delay" {
+        fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+    }
+    Some(fit)
+}
+
+/// The joint refit after the selection `selected` (see the module's documentation), when its
+/// final model still misses materially on switched data: `selected` becomes the pruned joint
+/// model's effects (those selected before, in their order, then those it added, the most
+/// material first), each with its step's fit. Returns what changed.
+pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
+    let last = selected.last()?;
+    if baseline.misses_materially(last.rms_after) != Some(true) || baseline.floor.is_none_or(|f| last.rms_after < MISS_FLOORS * f) {
+        return None;
+    }
+    let fits: Vec<&EffectFit> = selected.iter().collect();
+    let mut stack = Stack::of(&fits, nominal, last.cl.estimate, switched_nominal).ok()?;
+    if !stack.switched {
+        return None;
+    }
+    // The selected effects' own parameters: what each adds to the model of those before it.
+    let mut groups = Vec::new();
+    let mut before = Stack::of(&[], nominal, last.cl.estimate, switched_nominal).ok()?.free;
+    for k in 0..fits.len() {
+        let after = Stack::of(&fits[..=k], nominal, last.cl.estimate, switched_nominal).ok()?.free;
+        groups.push(Group { name: fits[k].name, frees: after.iter().filter(|f| !before.contains(f)).copied().collect(), selected: true });
+        before = after;
+    }
+    let has = |n: &str| fits.iter().any(|e| e.name == n);
+    let diode = has("diode_drop") || has("dcm");
+    let mut adds: Vec<(&'static str, Free, f64)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f, f.get(&stack.params))).collect();
+    if !stack.free.contains(&Free::RL) {
+        adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_START.max(stack.params.switch_resistance)));
+    }
+    if data.il.is_some() {
+        adds.push(("sample_delay", Free::SampleDelay, SAMPLE_DELAY_START));
+    }
+    if diode || has("dead_time") {
+        adds.push(("switch_node_capacitance", Free::SwitchNodeCapacitance, SWITCH_NODE_CAPACITANCE_START.max(stack.params.switch_node_capacitance)));
+    }
+    if diode {
+        adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_START.max(stack.params.diode_resistance)));
+    }
+    for (name, f, start) in adds {
+        if !stack.free.contains(&f) {
+            f.set(&mut stack.params, start);
+            stack.free.push(f);
+            groups.push(Group { name, frees: vec![f], selected: false });
+        }
+    }
+    let mut cand = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
+    let share = baseline.closed_of_material_gap(last.rms_after, rms(&residual(&cand)))?;
+    if share < MATERIAL_SHARE {
+        return None;
+    }
+    stack.params = cand.fit.params;
+    // Pruned one at a time: each effect refitted without, the least material non-finding
+    // dropped (one whose parameters are not identified before any other).
+    let mut dropped = Vec::new();
+    let findings = loop {
+        // A parameter the data does not pin down beside the others: its effect goes first.
+        let lost = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1]));
+        if let Some(k) = lost.and_then(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name))) {
+            let less = without(&stack, &groups[k], nominal);
+            let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
+            dropped.push(groups.remove(k));
+            (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+            continue;
+        }
+        let trials: Vec<Without> = groups
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, g)| {
+                let less = without(&stack, g, nominal);
+                let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
+                let fit = judged(data, nominal, g, &stack, &cand, &less, &against, n_est, baseline);
+                Some(Without { k, fit, less, against })
+            })
+            .collect();
+        let Some(weakest) = trials.iter().filter(|t| !t.finding()).min_by(|a, b| a.strength().total_cmp(&b.strength())).map(|t| t.k) else {
+            break trials;
+        };
+        // The immaterial ones all at once (a round of refits saved per effect), when together
+        // they close no material share of the gap the model leaves without them.
+        let immaterial: Vec<usize> = trials.iter().filter(|t| t.fit.as_ref().is_none_or(|f| !f.finding && !f.material)).map(|t| t.k).collect();
+        if immaterial.len() > 1 {
+            let less = immaterial.iter().fold(stack.clone(), |s, &k| without(&s, &groups[k], nominal));
+            if let Ok(against) = less.fit(data, &[less.params], n_est, holdout)
+                && baseline.closed_of_material_gap(rms(&residual(&against)), rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE)
+            {
+                for &k in immaterial.iter().rev() {
+                    dropped.push(groups.remove(k));
+                }
+                (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+                continue;
+            }
+        }
+        let Without { less, against, .. } = trials.into_iter().find(|t| t.k == weakest)?;
+        dropped.push(groups.remove(weakest));
+        (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+    };
+    if findings.len() != groups.len() || groups.is_empty() {
+        return None;
+    }
+    // In sequence: the selected effects kept, in their order, then those added, the most
+    // material first; each step's figures from the model of the effects up to it.
+    let mut order: Vec<(Group, EffectFit)> = groups.into_iter().zip(findings.into_iter().filter_map(|t| t.fit)).collect();
+    order.sort_by(|a, b| {
+        let rank = |g: &(Group, EffectFit)| (!g.0.selected, -g.1.closed_of_remaining.unwrap_or(0.0));
+        rank(a).partial_cmp(&rank(b)).unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let steps: Vec<Option<Candidate>> = (0..order.len())
+        .into_par_iter()
+        .map(|j| {
+            if j + 1 == order.len() {
+                return Some(cand.clone());
+            }
+            let prefix = order[j + 1..].iter().fold(stack.clone(), |s, (g, _)| without(&s, g, nominal));
+            prefix.fit(data, &[prefix.params], n_est, holdout).ok()
+        })
+        .collect();
+    let mut out = Vec::with_capacity(order.len());
+    for ((_, mut fit), step) in order.into_iter().zip(steps) {
+        fit.step_from(&step?, baseline);
+        out.push(fit);
+    }
+    let names = |gs: &[Group]| gs.iter().map(|g| g.label()).collect::<Vec<_>>().join(", ");
+    *selected = out;
+    Some(format!(
+        "the joint refit (every effect such a converter carries, fitted together) closes {share:.1} % of the gap left; pruned of {}",
+        if dropped.is_empty() { "nothing".to_string() } else { names(&dropped) }
+    ))
+}
