@@ -4,13 +4,15 @@
 //! five or six at once (a late ADC, dead time, the switches' resistance, an inductor 12 % low and a
 //! capacitor's ESR 40 % low), and a greedy path through them takes stand-ins that explain a
 //! part of several (a load ESR, C drifted) and ends with a model that still misses materially,
-//! the sequence full. Where it does, the model is refitted with, besides the effects selected,
-//! what every converter of its kind carries free at once: the drifts of L, C and Rc, the
-//! switches' resistance, the late reading (where il is recorded), and, where something conducts
-//! while both switches are off, the switch node's capacitance and a diode's slope resistance.
-//! When that model closes a material share of the gap left, it is pruned one effect at a time:
-//! the one that, given all the others, closes the least of the gap they leave, while it is no
-//! finding (immaterial, a drift within tolerance, not identified, on a bound).
+//! the sequence full. Where it misses by more than [`MISS_FLOORS`] noise floors, the model is
+//! refitted with, besides the effects selected, what every converter of its kind carries free
+//! at once: the drifts of L, C and Rc, the switches' resistance, the late reading (where il is
+//! recorded), and, where something conducts while both switches are off, the switch node's
+//! capacitance and a diode's slope resistance. When that model closes a material share of the
+//! gap left, it is pruned: an effect whose parameters the data does not pin down first, then
+//! drifts within tolerance (back to nominal together), then one at a time the effect that,
+//! given all the others, closes the least of the gap they leave while it is no finding
+//! (immaterial, not identified, on a bound; the immaterial ones together when jointly so).
 use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
@@ -171,6 +173,18 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
             let less = without(&stack, &groups[k], nominal);
             let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
             dropped.push(groups.remove(k));
+            (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+            continue;
+        }
+        // Drifts within the tolerance of their nominal values are consistent with them: back to
+        // nominal together, without a round of refits.
+        let tolerated: Vec<usize> = (0..groups.len()).filter(|&k| groups[k].name == "param_drift" && groups[k].frees.iter().all(|f| (f.get(&stack.params) / f.get(nominal) - 1.0).abs() <= baseline.tolerance)).collect();
+        if !tolerated.is_empty() {
+            let less = tolerated.iter().fold(stack.clone(), |s, &k| without(&s, &groups[k], nominal));
+            let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
+            for &k in tolerated.iter().rev() {
+                dropped.push(groups.remove(k));
+            }
             (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
             continue;
         }
