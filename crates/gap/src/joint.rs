@@ -7,8 +7,8 @@
 //! the sequence full. Where it misses by more than [`MISS_FLOORS`] noise floors, the model is
 //! refitted with, besides the effects selected, what every converter of its kind carries free
 //! at once: the drifts of L, C and Rc, the switches' resistance, the late reading (where il is
-//! recorded), and, where something conducts while both switches are off, the switch node's
-//! capacitance and a diode's slope resistance. When that model closes a material share of the
+//! recorded), the vout reading's gain, and, where something conducts while both switches are
+//! off, the switch node's capacitance and a diode's slope resistance. When that model closes a material share of the
 //! gap left, it is pruned: an effect whose parameters the data does not pin down first, then
 //! drifts within tolerance (back to nominal together), then one at a time the effect that,
 //! given all the others, closes the least of the gap they leave while it is no finding
@@ -147,6 +147,9 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     if diode || has("dead_time") {
         adds.push(("switch_node_capacitance", Free::SwitchNodeCapacitance, SWITCH_NODE_CAPACITANCE_START.max(stack.params.switch_node_capacitance)));
     }
+    // A divider's or a probe's gain error (its zero error is a resistance's drop at a constant
+    // load: left to the forward selection, which names the circuit first).
+    adds.push(("sensor_gain", Free::VoutGainError, 1e-3));
     if diode {
         adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_START.max(stack.params.diode_resistance)));
     }
@@ -226,8 +229,9 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     // In sequence: the selected effects kept, in their order, then those added, the most
     // material first; each step's figures from the model of the effects up to it.
     let mut order: Vec<(Group, EffectFit)> = groups.into_iter().zip(findings.into_iter().filter_map(|t| t.fit)).collect();
+    // (A stable sort: the selected keep their order.)
     order.sort_by(|a, b| {
-        let rank = |g: &(Group, EffectFit)| (!g.0.selected, -g.1.closed_of_remaining.unwrap_or(0.0));
+        let rank = |g: &(Group, EffectFit)| if g.0.selected { (false, 0.0) } else { (true, -g.1.closed_of_remaining.unwrap_or(0.0)) };
         rank(a).partial_cmp(&rank(b)).unwrap_or(std::cmp::Ordering::Equal)
     });
     let steps: Vec<Option<Candidate>> = (0..order.len())

@@ -246,6 +246,26 @@ fn five_effects_at_once_are_named_by_the_joint_refit() {
     assert_final_cl_holds(&dx, cl);
 }
 
+/// The same on a bench: dead time (40 ns, 400 pF), 7 mΩ switches, L 15 % high and C 20 % low,
+/// read 91 ns late through a divider 0.5 % high. The joint refit names the circuit's effects and
+/// the divider's gain, each near its value, and Cl's interval holds.
+#[test]
+fn a_divider_gain_error_is_named_beside_the_circuits_effects() {
+    let cl = 47e-6;
+    let p = Params { cl, dead_time: 40e-9, switch_node_capacitance: 400e-12, switch_resistance: 0.007, l: 3.8e-6, c: 80e-6, ..Params::default() };
+    let d = through_probes(read_late(p, 3), (0.005, 0.0), (0.0, 0.0));
+    let dx = diagnose_switched(&d);
+    let labels: Vec<String> = dx.selected.iter().map(|e| e.label()).collect();
+    for effect in ["dead_time", "param_drift (L)", "param_drift (C)", "sensor_gain"] {
+        assert!(labels.iter().any(|l| l == effect), "{effect} not in {labels:?}: {}", dx.selection_ended);
+    }
+    let value = |key: &str| dx.selected.iter().find_map(|e| e.params.get(key).copied()).unwrap();
+    for (key, truth, tolerance) in [("dead_time", 40e-9, 0.05), ("L", 3.8e-6, 0.02), ("C", 80e-6, 0.03), ("vout_gain_error", 0.005, 0.15)] {
+        assert!((value(key) / truth - 1.0).abs() < tolerance, "{key} {:e} for {truth:e}", value(key));
+    }
+    assert_final_cl_holds(&dx, cl);
+}
+
 /// A half bridge with unequal switches (40 mΩ high side, 12 mΩ low side) at 3 A: the
 /// switches' resistance first, then the low side's own, near its ratio, and Cl's interval holds.
 #[test]
