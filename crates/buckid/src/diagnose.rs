@@ -136,7 +136,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     for (i, e) in dx.selected.iter().enumerate() {
         let closed = e.closed_percent.map_or_else(|| "no gap above the floor".to_string(), |c| format!("{c:.1} % of the gap over the floor closed"));
-        println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.name, closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
+        println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.label(), closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
     }
     println!("selection   {}", dx.selection_ended);
     println!("verdict     {}", dx.verdict);

@@ -244,9 +244,12 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
             prefix.fit(data, &[prefix.params], n_est, holdout).ok()
         })
         .collect();
-    let mut out = Vec::with_capacity(order.len());
+    let mut out: Vec<EffectFit> = Vec::with_capacity(order.len());
     for ((_, mut fit), step) in order.into_iter().zip(steps) {
         fit.step_from(&step?, baseline);
+        // What it closes of the gap left by the steps before it (as a forward step reports; it
+        // was judged given all the others).
+        fit.closed_of_remaining = baseline.closed_of_material_gap(out.last().map_or(baseline.rms, |e| e.rms_after), fit.rms_after);
         out.push(fit);
     }
     let names = |gs: &[Group]| gs.iter().map(|g| g.label()).collect::<Vec<_>>().join(", ");

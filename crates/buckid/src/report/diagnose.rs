@@ -99,9 +99,10 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     let x: Vec<f64> = time.iter().take(shown).map(|t| t - t0).collect();
     let line = |name: &str, color, y: &[f64]| Line { name: name.to_string(), color, mark: Mark::Solid, points: x.iter().copied().zip(y.iter().copied()).collect() };
     let residual = |y: &[f64]| -> Vec<f64> { t.measured.iter().zip(y).take(shown).map(|(m, y)| m - y).collect() };
-    let selected = dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(" + ");
+    let labels: Vec<String> = dx.selected.iter().map(|e| e.label()).collect();
     let nominal_name = format!("nominal {} model", model_name(dx.nominal));
-    let final_name = format!("with {selected}");
+    // A legend holds three names; more read as the final model.
+    let final_name = if labels.len() <= 3 { format!("with {}", labels.join(" + ")) } else { format!("the final model ({} effects)", labels.len()) };
     let floor = w.noise_floor_rms;
     let band = || Band::symmetric(format!("±noise floor ({} RMS)", si(floor, "V", 3)), FLOOR, floor, (0.0, x.last().copied().unwrap_or(1.0)));
     let mut models: Vec<(&str, &[f64], _)> = vec![(nominal_name.as_str(), t.nominal.as_slice(), BLUE)];
@@ -129,7 +130,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     }
     let signature = Chart { title: "Held-out residual against the noise floor: the effect's signature", x: Axis::linear("time since hold-out start", "s"), panels };
 
-    let steps: Option<Vec<Step<'_>>> = dx.selected.iter().map(|e| Some(Step { name: e.name, closed_percent: e.closed_percent?, rms_after: e.rms_after })).collect();
+    let steps: Option<Vec<Step<'_>>> = dx.selected.iter().zip(&labels).map(|(e, label)| Some(Step { name: label, closed_percent: e.closed_percent?, rms_after: e.rms_after })).collect();
 
     let rows: Vec<Vec<String>> = dx
         .effects
@@ -161,7 +162,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     page.html(&format!(
         "<p class=\"result\"><b>Verdict: {}</b>{}. Cl of the final model: <b>{}</b>; {}.</p>",
         esc(&dx.verdict),
-        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")) } else { String::new() },
+        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.label()).collect::<Vec<_>>().join(", ")) } else { String::new() },
         esc(&with_ci(cl, Some(ci95), "F")),
         esc(&si_text(&test)),
     ));
@@ -199,7 +200,7 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
             .selected
             .iter()
             .enumerate()
-            .map(|(i, e)| vec![format!("{}", i + 1), format!("<b>{}</b>", e.name), params_html(e), percent(e.closed_percent), percent(e.closed_of_remaining), si(e.rms_after, "V", 3)])
+            .map(|(i, e)| vec![format!("{}", i + 1), format!("<b>{}</b>", esc(&e.label())), params_html(e), percent(e.closed_percent), percent(e.closed_of_remaining), si(e.rms_after, "V", 3)])
             .collect();
         page.html(&table(&["step", "effect", "parameters at the final fit (CI95)", "gap over the floor closed", "of what was left", "held-out residual RMS"], &rows));
         page.html(&format!("<p>The sequence ended: {}.</p>", esc(&si_text(&dx.selection_ended))));
