@@ -14,7 +14,7 @@
 //! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    HARNESS_CASES, Harness, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
+    HARNESS_CASES, HARNESS_SEVERAL, Harness, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
     draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
 };
 
@@ -103,6 +103,9 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     if s.pair_cases > 0 {
         println!("| both effects of a two-effect dataset named (≥ 80 %) | {} (at least one: {}) |", percent(s.pair_named, s.pair_cases), percent(s.pair_one_named, s.pair_cases));
     }
+    if s.several_cases > 0 {
+        println!("| every effect of a several-effect dataset named | {} (of their effects: {}) |", percent(s.several_named, s.several_cases), percent(s.several_effects_named, s.several_effects));
+    }
     let named = part.iter().filter(|o| !o.truth.effects().is_empty() && o.hit()).count();
     println!(
         "| ≥ 70 % of the held-out gap above the measurement noise closed, of the named with a gap | {} ({} named had none above the noise) |",
@@ -171,6 +174,7 @@ fn main() {
     let per_effect: usize = arg("--per-effect").map_or(4, |s| s.parse().expect("--per-effect N"));
     let spice_per_effect: usize = arg("--spice-per-effect").map_or(1, |s| s.parse().expect("--spice-per-effect M"));
     let harness_per_effect: usize = arg("--harness-per-effect").map_or(1, |s| s.parse().expect("--harness-per-effect K"));
+    let harness_several: usize = arg("--harness-several").map_or(0, |s| s.parse().expect("--harness-several R"));
     let ranges = arg("--harness-adc-delay").map_or_else(HarnessRanges::default, |s| {
         let v: Vec<f64> = s.split(',').map(|x| x.trim().parse().expect("--harness-adc-delay LO,HI [s]")).collect();
         HarnessRanges { adc_delay: [v[0], *v.get(1).unwrap_or(&v[0])] }
@@ -216,11 +220,11 @@ fn main() {
             }
         }
     }
-    let harness = if no_spice || harness_per_effect == 0 { None } else { Harness::find(&root) };
-    if harness.is_none() && !no_spice && harness_per_effect > 0 {
+    let harness = if no_spice || harness_per_effect + harness_several == 0 { None } else { Harness::find(&root) };
+    if harness.is_none() && !no_spice && harness_per_effect + harness_several > 0 {
         eprintln!("ngspice or .venv missing (scripts/setup): no independent-harness datasets");
     }
-    if let Some(harness) = &harness {
+    if let Some(harness) = harness.as_ref().filter(|_| harness_per_effect > 0) {
         // Indices of their own (offset) so that adding plant or ngspice datasets does not
         // change the harness's draws.
         for round in 0..harness_per_effect {
@@ -230,9 +234,30 @@ fn main() {
                 if !selection.runs(index) {
                     continue;
                 }
-                let truth = draw_harness(effect, *also, &ranges, &mut rng(seed, hindex));
+                let truth = draw_harness(effect, also, &ranges, &mut rng(seed, hindex));
                 match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
                     Ok(case) => outcomes.push(selection.diagnose(index, &case)),
+                    Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
+                }
+            }
+        }
+    }
+    if let Some(harness) = harness.as_ref().filter(|_| harness_several > 0) {
+        // Indices of their own, apart from the one- and two-effect sets' (which they leave as
+        // they were), and a source of their own in the report.
+        for round in 0..harness_several {
+            for (i, (effect, also)) in HARNESS_SEVERAL.iter().enumerate() {
+                let hindex = 2_000_000 + (round * HARNESS_SEVERAL.len() + i) as u64;
+                index += 1;
+                if !selection.runs(index) {
+                    continue;
+                }
+                let truth = draw_harness(effect, also, &ranges, &mut rng(seed, hindex));
+                match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
+                    Ok(mut case) => {
+                        case.source = "harness-several";
+                        outcomes.push(selection.diagnose(index, &case));
+                    }
                     Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
                 }
             }
@@ -241,7 +266,13 @@ fn main() {
     if harness.is_some() {
         eprintln!("harness ADC delay drawn in [{:e}, {:e}] s", ranges.adc_delay[0], ranges.adc_delay[1]);
     }
-    for (source, title) in [("fmu", "own FMU"), ("in-process", "own model in process"), ("ngspice", "own ngspice netlists"), ("harness", "independent harness")] {
+    for (source, title) in [
+        ("fmu", "own FMU"),
+        ("in-process", "own model in process"),
+        ("ngspice", "own ngspice netlists"),
+        ("harness", "independent harness"),
+        ("harness-several", "independent harness, several effects at once"),
+    ] {
         let part: Vec<Outcome> = outcomes.iter().filter(|o| o.source == source).cloned().collect();
         if !part.is_empty() {
             report(title, seed, &part);

@@ -2,9 +2,10 @@
 //! miss. `cargo run --release -p blind --example case -- SEED INDEX EFFECT [CSV] [--spice | --harness]`
 //! (CSV: also write the dataset there; `--spice`: the ngspice dataset of that index;
 //! `--harness`: the independent harness's, EFFECT as `a` or `a+b`, INDEX as the bench draws it:
-//! 1000000 + round·12 + position in `HARNESS_CASES`)
+//! 1000000 + round·12 + position in `HARNESS_CASES`, or 2000000 + round·2 + position in
+//! `HARNESS_SEVERAL`)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a tool: failing loudly is fine
-use blind::{HARNESS_CASES, Harness, SAMPLES, Spice, bundled_fmu, draw, draw_harness, harness_case, plant_case, rng, spice_case};
+use blind::{HARNESS_CASES, HARNESS_SEVERAL, Harness, SAMPLES, Spice, bundled_fmu, draw, draw_harness, harness_case, plant_case, rng, spice_case};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -12,7 +13,8 @@ fn main() {
     let case = if args.iter().any(|a| a == "--harness") {
         let (effect, also) = HARNESS_CASES
             .iter()
-            .find(|(e, a)| a.map_or_else(|| (*e).to_string(), |a| format!("{e}+{a}")) == args[3])
+            .chain(&HARNESS_SEVERAL)
+            .find(|(e, a)| std::iter::once(*e).chain(a.iter().copied()).collect::<Vec<_>>().join("+") == args[3])
             .copied()
             .expect("a HARNESS_CASES entry");
         let truth = draw_harness(effect, also, &blind::HarnessRanges::default(), &mut rng(seed, index));

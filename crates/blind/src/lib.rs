@@ -37,8 +37,8 @@ pub const SAMPLES: usize = 3001;
 pub struct Truth {
     /// The effect's contract name, or `none` for a clean dataset.
     pub effect: &'static str,
-    /// A second withheld effect (two-effect datasets of the independent harness).
-    pub also: Option<&'static str>,
+    /// Further withheld effects (the independent harness's datasets with two or more).
+    pub also: Vec<&'static str>,
     /// Standard deviation of the sensor noise on `vout` [V].
     pub noise: f64,
     /// The load capacitance [F].
@@ -52,7 +52,7 @@ pub struct Truth {
 impl Truth {
     /// The withheld effects (empty for a clean dataset).
     pub fn effects(&self) -> Vec<&'static str> {
-        std::iter::once(self.effect).chain(self.also).filter(|e| *e != "none").collect()
+        std::iter::once(self.effect).chain(self.also.iter().copied()).filter(|e| *e != "none").collect()
     }
 
     /// The withheld effects joined by `+`, or `none`.
@@ -162,7 +162,7 @@ pub fn draw(effect: &'static str, rng: &mut ChaCha8Rng) -> Truth {
         }
         other => unreachable!("no generator for {other}"),
     };
-    Truth { effect, also: None, noise: NOISE_VOUT, cl, io, settings }
+    Truth { effect, also: Vec::new(), noise: NOISE_VOUT, cl, io, settings }
 }
 
 /// The experiment of every dataset: PRBS duty 0.4/0.6, 3001 samples, seeded noise.
@@ -324,20 +324,25 @@ impl Harness {
 }
 
 /// The withheld effects of the harness's datasets: one each, or two.
-pub const HARNESS_CASES: [(&str, Option<&str>); 12] = [
-    ("none", None),
-    ("switch_resistance", None),
-    ("diode_drop", None),
-    ("dead_time", None),
-    ("load_esr", None),
-    ("esl", None),
-    ("param_drift", None),
-    ("inductor_saturation", None),
-    ("cap_dc_bias", None),
-    ("diode_drop", Some("switch_resistance")),
-    ("dead_time", Some("load_esr")),
-    ("param_drift", Some("switch_resistance")),
+pub const HARNESS_CASES: [(&str, &[&str]); 12] = [
+    ("none", &[]),
+    ("switch_resistance", &[]),
+    ("diode_drop", &[]),
+    ("dead_time", &[]),
+    ("load_esr", &[]),
+    ("esl", &[]),
+    ("param_drift", &[]),
+    ("inductor_saturation", &[]),
+    ("cap_dc_bias", &[]),
+    ("diode_drop", &["switch_resistance"]),
+    ("dead_time", &["load_esr"]),
+    ("param_drift", &["switch_resistance"]),
 ];
+
+/// Converters as real ones come, several effects at once (besides the late ADC every harness
+/// dataset has): a synchronous buck with dead time, unequal switches and two of L, C, Rc off
+/// nominal; a diode buck with its high side's resistance and one of them off.
+pub const HARNESS_SEVERAL: [(&str, &[&str]); 2] = [("dead_time", &["switch_resistance", "param_drift", "param_drift"]), ("diode_drop", &["switch_resistance", "param_drift"])];
 
 fn log_uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     uniform(rng, lo.ln(), hi.ln()).exp()
@@ -401,13 +406,13 @@ impl Default for HarnessRanges {
 /// 50 pF–1 nF, driver resistance 0.5–3 Ω into 1–3 nF; switches of 1–3 µΩ (`SW` pair) or
 /// 20–50 µΩ (level-1 NMOS: a few µΩ let ngspice's step collapse at some edges) unless
 /// `switch_resistance` is withheld (0.1 mΩ already shows over 3001 samples at a few amperes).
-pub fn draw_harness(effect: &'static str, also: Option<&'static str>, ranges: &HarnessRanges, rng: &mut ChaCha8Rng) -> Truth {
+pub fn draw_harness(effect: &'static str, also: &[&'static str], ranges: &HarnessRanges, rng: &mut ChaCha8Rng) -> Truth {
     let cl = log_uniform(rng, 0.2e-6, 100e-6);
     let io = uniform(rng, 0.3, 5.0);
     let noise = uniform(rng, 1e-3, 4e-3);
     // Drawn as a fraction so that the other draws do not depend on the range.
     let adc = uniform(rng, 0.0, 1.0);
-    let effects: Vec<&str> = std::iter::once(effect).chain(also).collect();
+    let effects: Vec<&str> = std::iter::once(effect).chain(also.iter().copied()).collect();
     let ron = if harness_topology(&effects) == "sw" { [1e-6, 3e-6] } else { [20e-6, 50e-6] };
     let mut settings: Vec<(&'static str, f64)> = vec![
         ("noise_vout", noise),
@@ -420,14 +425,19 @@ pub fn draw_harness(effect: &'static str, also: Option<&'static str>, ranges: &H
         ("ron_hs", uniform(rng, ron[0], ron[1])),
         ("ron_ls", uniform(rng, ron[0], ron[1])),
     ];
-    for e in std::iter::once(effect).chain(also) {
-        for (key, value) in harness_effect(e, io, rng) {
+    for &e in &effects {
+        let mut drawn = harness_effect(e, io, rng);
+        // A second drift drifts another value.
+        while e == "param_drift" && drawn.iter().any(|(k, _)| settings.iter().any(|(s, _)| s == k)) {
+            drawn = harness_effect(e, io, rng);
+        }
+        for (key, value) in drawn {
             // A withheld effect's value replaces the near-ideal default of the same key.
             settings.retain(|(k, _)| *k != key);
             settings.push((key, value));
         }
     }
-    Truth { effect, also, noise, cl, io, settings }
+    Truth { effect, also: also.to_vec(), noise, cl, io, settings }
 }
 
 /// The harness's circuit for `effects`: the diode buck for `diode_drop`, the synchronous
@@ -624,8 +634,18 @@ impl Outcome {
         match self.truth.effects().as_slice() {
             [] => named.is_empty(),
             [one] => named.first().is_some_and(|n| n == one),
-            all => all.iter().all(|e| named.iter().any(|n| n == e)),
+            all => self.withheld_named() == all.len(),
         }
+    }
+
+    /// How many of the withheld effects were named (each as often as it was withheld: two
+    /// drifts need two named).
+    pub fn withheld_named(&self) -> usize {
+        let (all, named) = (self.truth.effects(), self.named_withheld());
+        let count = |e: &str, of: &mut dyn Iterator<Item = &str>| of.filter(|n| *n == e).count();
+        let mut distinct = all.clone();
+        distinct.dedup();
+        distinct.iter().map(|e| count(e, &mut all.iter().copied()).min(count(e, &mut named.iter().map(|n| n.as_str())))).sum()
     }
 
     /// The named effects less `sample_delay` where the data was acquired late (the harness's
@@ -723,6 +743,14 @@ pub struct Scores {
     pub pair_named: usize,
     /// Of those, with at least one named.
     pub pair_one_named: usize,
+    /// Datasets withholding three or more effects.
+    pub several_cases: usize,
+    /// Of those, with every one named.
+    pub several_named: usize,
+    /// The withheld effects of those datasets.
+    pub several_effects: usize,
+    /// Of those, named.
+    pub several_effects_named: usize,
     /// Datasets with a final Cl interval.
     pub final_cl_cases: usize,
     /// Of those, with the true Cl inside it.
@@ -733,7 +761,9 @@ pub struct Scores {
 /// over every correctly named dataset with an effect).
 pub fn score(outcomes: &[Outcome]) -> Scores {
     let effect: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() == 1).collect();
-    let pair: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() >= 2).collect();
+    let pair: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() == 2).collect();
+    let several: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().len() > 2).collect();
+
     let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth.effects().is_empty()).collect();
     let named: Vec<&Outcome> = outcomes.iter().filter(|o| !o.truth.effects().is_empty() && o.hit()).collect();
     let finals: Vec<bool> = outcomes.iter().filter_map(Outcome::final_cl_in_ci95).collect();
@@ -750,6 +780,10 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         pair_cases: pair.len(),
         pair_named: pair.iter().filter(|o| o.hit()).count(),
         pair_one_named: pair.iter().filter(|o| o.truth.effects().iter().any(|e| o.named.iter().any(|n| n == e))).count(),
+        several_cases: several.len(),
+        several_named: several.iter().filter(|o| o.hit()).count(),
+        several_effects: several.iter().map(|o| o.truth.effects().len()).sum(),
+        several_effects_named: several.iter().map(|o| o.withheld_named()).sum(),
         final_cl_cases: finals.len(),
         final_cl_covered: finals.iter().filter(|c| **c).count(),
     }
@@ -786,4 +820,44 @@ pub fn confusion_matrix(outcomes: &[Outcome]) -> String {
         s += &format!("| {r} | {} |\n", counts.join(" | "));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An outcome of a harness dataset (its ADC late) withholding `effects`, naming `named`.
+    fn outcome(effects: &[&'static str], named: &[&str]) -> Outcome {
+        let truth = Truth { effect: effects[0], also: effects[1..].to_vec(), noise: 1e-3, cl: 1e-6, io: 1.0, settings: vec![("adc_delay", 1e-7)] };
+        Outcome {
+            truth,
+            source: "harness-several",
+            verdict: named.first().map_or("none", |n| n).to_string(),
+            named: named.iter().map(|n| n.to_string()).collect(),
+            shrink_percent: None,
+            closed_percent: None,
+            detectable: true,
+            noise_floor: None,
+            cl: None,
+            cl_check: None,
+            final_cl: None,
+            seconds: 0.0,
+            true_cl: 1e-6,
+        }
+    }
+
+    /// Two drifts withheld need two named; the late reading the harness always has is not
+    /// scored; the order does not matter.
+    #[test]
+    fn each_withheld_effect_counts_as_often_as_it_was_withheld() {
+        let withheld = ["dead_time", "switch_resistance", "param_drift", "param_drift"];
+        let one_drift = outcome(&withheld, &["dead_time", "param_drift", "sample_delay", "switch_resistance"]);
+        assert_eq!(one_drift.withheld_named(), 3);
+        assert!(!one_drift.hit());
+        let both = outcome(&withheld, &["param_drift", "dead_time", "sample_delay", "param_drift", "switch_resistance"]);
+        assert_eq!(both.withheld_named(), 4);
+        assert!(both.hit());
+        let scores = score(&[one_drift, both]);
+        assert_eq!((scores.several_cases, scores.several_named, scores.several_effects, scores.several_effects_named, scores.pair_cases), (2, 1, 8, 7, 0));
+    }
 }

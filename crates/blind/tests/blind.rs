@@ -36,7 +36,7 @@ fn an_independent_harness_dataset_reads_and_diagnoses() {
         eprintln!("ngspice or .venv missing (scripts/setup): independent-harness test skipped");
         return;
     };
-    let truth = blind::draw_harness("load_esr", None, &blind::HarnessRanges::default(), &mut rng(SEED, 1));
+    let truth = blind::draw_harness("load_esr", &[], &blind::HarnessRanges::default(), &mut rng(SEED, 1));
     let case = blind::harness_case(truth.clone(), SEED, &harness, 1501).unwrap();
     assert_eq!(case.data.len(), 1501);
     assert_eq!(case.data.meta.keys().collect::<Vec<_>>(), ["U", "fs"], "metadata cut to fs and U");
@@ -65,7 +65,7 @@ fn a_stand_in_taken_before_a_late_reading_is_dropped() {
     };
     let settings = vec![("noise_vout", 2.5e-3), ("noise_il", 5e-3), ("adc_delay", 150e-9), ("dead_time", 30e-9), ("diode_is", 1e-11), ("diode_n", 1.1)];
     let (cl, noise) = (4.7e-6, 2.5e-3);
-    let truth = blind::Truth { effect: "dead_time", also: None, noise, cl, io: 1.2, settings };
+    let truth = blind::Truth { effect: "dead_time", also: Vec::new(), noise, cl, io: 1.2, settings };
     let case = blind::harness_case(truth, 21, &harness, 3001).unwrap();
     let dx = gap::diagnose(&case.data, &case.nominal, &gap::DiagnoseOptions { nominal: gap::Nominal::Switched, ..gap::DiagnoseOptions::default() }).unwrap();
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
@@ -87,7 +87,7 @@ fn a_pair_behind_failed_changes_of_switching_is_found() {
         return;
     };
     let (seed, index) = (2026, 1_000_011);
-    let truth = blind::draw_harness("param_drift", Some("switch_resistance"), &blind::HarnessRanges::default(), &mut rng(seed, index));
+    let truth = blind::draw_harness("param_drift", &["switch_resistance"], &blind::HarnessRanges::default(), &mut rng(seed, index));
     let case = blind::harness_case(truth, seed ^ index, &harness, blind::SAMPLES).unwrap();
     let o = diagnose_case(&case);
     assert!(o.hit(), "said {}", o.said());
