@@ -8,8 +8,9 @@
 //! refitted with, besides the effects selected, what every converter of its kind carries free
 //! at once: the drifts of L, C and Rc, the switches' resistance, the late reading (where il is
 //! recorded), the vout reading's gain, and, where something conducts while both switches are
-//! off, the switch node's capacitance and a diode's slope resistance. When that model closes a material share of the
-//! gap left, it is pruned: an effect whose parameters the data does not pin down first, then
+//! off, the switch node's capacitance and a diode's slope resistance. When that model closes a
+//! material share of the gap left, it is pruned: an effect whose parameters the data does not
+//! pin down first, then
 //! drifts within tolerance (back to nominal together), then one at a time the effect that,
 //! given all the others, closes the least of the gap they leave while it is no finding
 //! (immaterial, not identified, on a bound; the immaterial ones together when jointly so).
@@ -19,8 +20,8 @@ use estimator::identify::Candidate;
 use estimator::model::Free;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, judge, residual, rms};
-use crate::select::{Extension, Stack};
+use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, judge, residual, rms};
+use crate::select::{DIODE_RESISTANCE_STARTS, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
 #[derive(Debug, Clone)]
@@ -48,13 +49,6 @@ impl Group {
 /// costing a round of fits per effect pruned, would not change.
 const MISS_FLOORS: f64 = 2.0;
 
-/// Start values of the effects the joint model adds: the switches' resistance [Ω], the late
-/// reading [s], the switch node's capacitance [F], a diode's slope resistance [Ω].
-const SWITCH_RESISTANCE_START: f64 = 0.005;
-const SAMPLE_DELAY_START: f64 = 50e-9;
-const SWITCH_NODE_CAPACITANCE_START: f64 = 200e-12;
-const DIODE_RESISTANCE_START: f64 = 0.01;
-
 /// An effect of the joint model judged against the model refitted without it.
 struct Without {
     /// Its index in the groups.
@@ -76,6 +70,11 @@ impl Without {
     fn finding(&self) -> bool {
         self.fit.as_ref().is_some_and(|f| f.finding)
     }
+}
+
+/// A simulated effect's first start value, as its candidate has it ([`SIMULATED_EFFECTS`]).
+fn candidate_start(name: &str) -> Option<f64> {
+    SIMULATED_EFFECTS.iter().find(|e| e.name == name)?.extra.first().map(|x| x.1)
 }
 
 /// The model without `g`: its parameters free no more, at their nominal values (a late
@@ -139,19 +138,19 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     let diode = has("diode_drop") || has("dcm");
     let mut adds: Vec<(&'static str, Free, f64)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f, f.get(&stack.params))).collect();
     if !stack.free.contains(&Free::RL) {
-        adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_START.max(stack.params.switch_resistance)));
+        adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_STARTS[0].max(stack.params.switch_resistance)));
     }
     if data.il.is_some() {
-        adds.push(("sample_delay", Free::SampleDelay, SAMPLE_DELAY_START));
+        adds.push(("sample_delay", Free::SampleDelay, candidate_start("sample_delay")?));
     }
     if diode || has("dead_time") {
-        adds.push(("switch_node_capacitance", Free::SwitchNodeCapacitance, SWITCH_NODE_CAPACITANCE_START.max(stack.params.switch_node_capacitance)));
+        adds.push(("switch_node_capacitance", Free::SwitchNodeCapacitance, SWITCH_NODE_CAPACITANCE_STARTS[0].max(stack.params.switch_node_capacitance)));
     }
     // A divider's or a probe's gain error (its zero error is a resistance's drop at a constant
     // load: left to the forward selection, which names the circuit first).
-    adds.push(("sensor_gain", Free::VoutGainError, 1e-3));
+    adds.push(("sensor_gain", Free::VoutGainError, candidate_start("sensor_gain")?));
     if diode {
-        adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_START.max(stack.params.diode_resistance)));
+        adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_STARTS[0].max(stack.params.diode_resistance)));
     }
     for (name, f, start) in adds {
         if !stack.free.contains(&f) {

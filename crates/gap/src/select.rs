@@ -33,15 +33,15 @@ const MAX_EFFECTS: usize = 4;
 const RESISTANCE_STARTS: [f64; 2] = [0.0, 0.03];
 
 /// The switches' own resistance tried as starts [Ω].
-const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
+pub(crate) const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
 
 /// A diode's slope resistance tried as starts [Ω] (a Schottky's at a few amperes is
 /// 20–50 mΩ).
-const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
+pub(crate) const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 
 /// A switch node's capacitance tried as starts [F] (a power MOSFET's output capacitance is a
 /// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
-const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
+pub(crate) const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
 
 /// The low-side switch's on-resistance over the high side's, tried as starts (a low side
 /// half or twice the high side's).
