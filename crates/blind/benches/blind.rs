@@ -14,7 +14,7 @@
 //! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    HARNESS_CASES, HARNESS_SEVERAL, Harness, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
+    Case, HARNESS_CASES, HARNESS_SEVERAL, Harness, HarnessCase, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
     draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
 };
 
@@ -224,41 +224,25 @@ fn main() {
     if harness.is_none() && !no_spice && harness_per_effect + harness_several > 0 {
         eprintln!("ngspice or .venv missing (scripts/setup): no independent-harness datasets");
     }
-    if let Some(harness) = harness.as_ref().filter(|_| harness_per_effect > 0) {
+    if let Some(harness) = &harness {
         // Indices of their own (offset) so that adding plant or ngspice datasets does not
-        // change the harness's draws.
-        for round in 0..harness_per_effect {
-            for (i, (effect, also)) in HARNESS_CASES.iter().enumerate() {
-                let hindex = 1_000_000 + (round * HARNESS_CASES.len() + i) as u64;
-                index += 1;
-                if !selection.runs(index) {
-                    continue;
-                }
-                let truth = draw_harness(effect, also, &ranges, &mut rng(seed, hindex));
-                match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
-                    Ok(case) => outcomes.push(selection.diagnose(index, &case)),
-                    Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
-                }
-            }
-        }
-    }
-    if let Some(harness) = harness.as_ref().filter(|_| harness_several > 0) {
-        // Indices of their own, apart from the one- and two-effect sets' (which they leave as
-        // they were), and a source of their own in the report.
-        for round in 0..harness_several {
-            for (i, (effect, also)) in HARNESS_SEVERAL.iter().enumerate() {
-                let hindex = 2_000_000 + (round * HARNESS_SEVERAL.len() + i) as u64;
-                index += 1;
-                if !selection.runs(index) {
-                    continue;
-                }
-                let truth = draw_harness(effect, also, &ranges, &mut rng(seed, hindex));
-                match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
-                    Ok(mut case) => {
-                        case.source = "harness-several";
-                        outcomes.push(selection.diagnose(index, &case));
+        // change the harness's draws; the several-effect sets apart from the one- and
+        // two-effect sets' (which they leave as they were), and a source of their own.
+        let kinds: [(&[HarnessCase], usize, u64, &'static str); 2] =
+            [(&HARNESS_CASES, harness_per_effect, 1_000_000, "harness"), (&HARNESS_SEVERAL, harness_several, 2_000_000, "harness-several")];
+        for (cases, rounds, offset, source) in kinds {
+            for round in 0..rounds {
+                for (i, (effect, also)) in cases.iter().enumerate() {
+                    let hindex = offset + (round * cases.len() + i) as u64;
+                    index += 1;
+                    if !selection.runs(index) {
+                        continue;
                     }
-                    Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
+                    let truth = draw_harness(effect, also, &ranges, &mut rng(seed, hindex));
+                    match harness_case(truth.clone(), seed ^ hindex, harness, SAMPLES) {
+                        Ok(case) => outcomes.push(selection.diagnose(index, &Case { source, ..case })),
+                        Err(e) => eprintln!("{index:>3} harness {}: generator failed: {e}", truth.label()),
+                    }
                 }
             }
         }

@@ -323,8 +323,11 @@ impl Harness {
     }
 }
 
+/// The withheld effects of a harness dataset: the first, and the others.
+pub type HarnessCase = (&'static str, &'static [&'static str]);
+
 /// The withheld effects of the harness's datasets: one each, or two.
-pub const HARNESS_CASES: [(&str, &[&str]); 12] = [
+pub const HARNESS_CASES: [HarnessCase; 12] = [
     ("none", &[]),
     ("switch_resistance", &[]),
     ("diode_drop", &[]),
@@ -342,7 +345,7 @@ pub const HARNESS_CASES: [(&str, &[&str]); 12] = [
 /// Converters as real ones come, several effects at once (besides the late ADC every harness
 /// dataset has): a synchronous buck with dead time, unequal switches and two of L, C, Rc off
 /// nominal; a diode buck with its high side's resistance and one of them off.
-pub const HARNESS_SEVERAL: [(&str, &[&str]); 2] = [("dead_time", &["switch_resistance", "param_drift", "param_drift"]), ("diode_drop", &["switch_resistance", "param_drift"])];
+pub const HARNESS_SEVERAL: [HarnessCase; 2] = [("dead_time", &["switch_resistance", "param_drift", "param_drift"]), ("diode_drop", &["switch_resistance", "param_drift"])];
 
 fn log_uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     uniform(rng, lo.ln(), hi.ln()).exp()
@@ -642,10 +645,9 @@ impl Outcome {
     /// drifts need two named).
     pub fn withheld_named(&self) -> usize {
         let (all, named) = (self.truth.effects(), self.named_withheld());
-        let count = |e: &str, of: &mut dyn Iterator<Item = &str>| of.filter(|n| *n == e).count();
         let mut distinct = all.clone();
         distinct.dedup();
-        distinct.iter().map(|e| count(e, &mut all.iter().copied()).min(count(e, &mut named.iter().map(|n| n.as_str())))).sum()
+        distinct.iter().map(|e| all.iter().filter(|a| *a == e).count().min(named.iter().filter(|n| n.as_str() == *e).count())).sum()
     }
 
     /// The named effects less `sample_delay` where the data was acquired late (the harness's

@@ -106,8 +106,9 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
     if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
         return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
-    // What the vout reading makes of the voltage (its gain and zero error).
+    // What the readings make of the voltage and the current (their gain and zero errors).
     let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
+    let read_il = |i: f64| (1.0 + p.il_gain_error) * i + p.il_offset;
     let mut out = Vec::with_capacity(data.len());
     let mut il = Vec::with_capacity(data.len());
     for k in 0..data.len() {
@@ -116,11 +117,11 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
             set_inputs(&mut conv, k)?;
             conv.step(late).map_err(plant)?;
             out.push(read(conv.outputs().vout));
-            il.push((1.0 + p.il_gain_error) * conv.state().il + p.il_offset);
+            il.push(read_il(conv.state().il));
             conv.step(period - late).map_err(plant)?;
         } else {
             out.push(read(conv.outputs().vout));
-            il.push((1.0 + p.il_gain_error) * conv.state().il + p.il_offset);
+            il.push(read_il(conv.state().il));
             set_inputs(&mut conv, k)?;
             conv.step(period).map_err(plant)?;
         }

@@ -34,9 +34,19 @@ pub const EFFECTS: [&str; 18] = [
 ];
 
 /// Whether the effect `name` calibrates the vout reading (its zero or gain error) rather than
-/// changes the circuit: an explanation of last resort (see `select::best_material`).
+/// changes the circuit: its simulator form frees only reading calibrations
+/// ([`Free::calibrates_reading`]). An explanation of last resort (see `select::best_material`).
 pub(crate) fn calibrates_reading(name: &str) -> bool {
-    matches!(name, "sensor_offset" | "sensor_gain")
+    SIMULATED_EFFECTS.iter().find(|e| e.name == name).is_some_and(|e| e.extra.iter().all(|&(f, _)| f.calibrates_reading()))
+}
+
+/// An effect's name with the value it frees where the name alone does not say: a drift's
+/// (`param_drift (Rc)`).
+pub(crate) fn effect_label(name: &str, freed: Option<&str>) -> String {
+    match freed {
+        Some(value) if name == "param_drift" => format!("{name} ({value})"),
+        _ => name.to_string(),
+    }
 }
 
 /// Akaike difference below which a model with as many parameters counts as clearly better
@@ -178,10 +188,7 @@ pub struct EffectFit {
 impl EffectFit {
     /// Its name, with the value it frees where the name alone does not say (`param_drift (Rc)`).
     pub fn label(&self) -> String {
-        match self.params.keys().find(|k| k.ends_with("_nominal")) {
-            Some(k) => format!("{} ({})", self.name, k.trim_end_matches("_nominal")),
-            None => self.name.to_string(),
-        }
+        effect_label(self.name, self.params.keys().find_map(|k| k.strip_suffix("_nominal")))
     }
 
     /// Takes the step's figures (residual, shrink, gap closed, Cl) from `cand`, the fit of the

@@ -20,7 +20,7 @@ use estimator::identify::Candidate;
 use estimator::model::Free;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, judge, residual, rms};
+use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, effect_label, judge, residual, rms};
 use crate::select::{DIODE_RESISTANCE_STARTS, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
@@ -33,12 +33,9 @@ struct Group {
 }
 
 impl Group {
-    /// Its name, with the value it frees where the name alone does not say.
+    /// Its name, with the value it frees where the name alone does not say ([`effect_label`]).
     fn label(&self) -> String {
-        match self.frees.as_slice() {
-            [f] if self.name == "param_drift" => format!("param_drift ({})", f.name()),
-            _ => self.name.to_string(),
-        }
+        effect_label(self.name, self.frees.first().map(|f| f.name()))
     }
 }
 
@@ -99,11 +96,19 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     s
 }
 
-/// `g` judged on top of the model without it (`less`, fitted as `against`) in the model `with`
-/// (fitted as `cand`): `None` when its parameters are not identified there.
+/// The model `stack` without the groups `gone` ([`without`]), refitted: the model at its fitted
+/// values, and its fit.
+fn refitted_without<'a>(data: &DataSet, nominal: &Params, stack: &Stack, gone: impl IntoIterator<Item = &'a Group>, n_est: usize, holdout: f64) -> Option<(Stack, Candidate)> {
+    let less = gone.into_iter().fold(stack.clone(), |s, g| without(&s, g, nominal));
+    let fit = less.fit(data, &[less.params], n_est, holdout).ok()?;
+    Some((Stack { params: fit.fit.params, ..less }, fit))
+}
+
+/// `g` judged on top of the model without it (fitted as `against`) in the model `with` (fitted
+/// as `cand`): `None` when its parameters are not identified there.
 #[allow(clippy::too_many_arguments)]
-fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Candidate, less: &Stack, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
-    let x = Extension::within(with, g.name, &g.frees, less.params);
+fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Candidate, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
+    let x = Extension::within(with, g.name, &g.frees, against.fit.params);
     let t = x.assess(cand.clone(), nominal).ok()?;
     let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
     if g.name == "sample_delay" {
@@ -172,31 +177,24 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         // A parameter the data does not pin down beside the others: its effect goes first.
         let lost = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1]));
         if let Some(k) = lost.and_then(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name))) {
-            let less = without(&stack, &groups[k], nominal);
-            let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
+            (stack, cand) = refitted_without(data, nominal, &stack, [&groups[k]], n_est, holdout)?;
             dropped.push(groups.remove(k));
-            (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
             continue;
         }
         // Drifts within the tolerance of their nominal values are consistent with them: back to
         // nominal together, without a round of refits.
         let tolerated: Vec<usize> = (0..groups.len()).filter(|&k| groups[k].name == "param_drift" && groups[k].frees.iter().all(|f| (f.get(&stack.params) / f.get(nominal) - 1.0).abs() <= baseline.tolerance)).collect();
         if !tolerated.is_empty() {
-            let less = tolerated.iter().fold(stack.clone(), |s, &k| without(&s, &groups[k], nominal));
-            let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
-            for &k in tolerated.iter().rev() {
-                dropped.push(groups.remove(k));
-            }
-            (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+            (stack, cand) = refitted_without(data, nominal, &stack, tolerated.iter().map(|&k| &groups[k]), n_est, holdout)?;
+            dropped.extend(tolerated.iter().rev().map(|&k| groups.remove(k)));
             continue;
         }
         let trials: Vec<Without> = groups
             .par_iter()
             .enumerate()
             .filter_map(|(k, g)| {
-                let less = without(&stack, g, nominal);
-                let against = less.fit(data, &[less.params], n_est, holdout).ok()?;
-                let fit = judged(data, nominal, g, &stack, &cand, &less, &against, n_est, baseline);
+                let (less, against) = refitted_without(data, nominal, &stack, [g], n_est, holdout)?;
+                let fit = judged(data, nominal, g, &stack, &cand, &against, n_est, baseline);
                 Some(Without { k, fit, less, against })
             })
             .collect();
@@ -206,21 +204,17 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         // The immaterial ones all at once (a round of refits saved per effect), when together
         // they close no material share of the gap the model leaves without them.
         let immaterial: Vec<usize> = trials.iter().filter(|t| t.fit.as_ref().is_none_or(|f| !f.finding && !f.material)).map(|t| t.k).collect();
-        if immaterial.len() > 1 {
-            let less = immaterial.iter().fold(stack.clone(), |s, &k| without(&s, &groups[k], nominal));
-            if let Ok(against) = less.fit(data, &[less.params], n_est, holdout)
-                && baseline.closed_of_material_gap(rms(&residual(&against)), rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE)
-            {
-                for &k in immaterial.iter().rev() {
-                    dropped.push(groups.remove(k));
-                }
-                (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
-                continue;
-            }
+        if immaterial.len() > 1
+            && let Some((less, against)) = refitted_without(data, nominal, &stack, immaterial.iter().map(|&k| &groups[k]), n_est, holdout)
+            && baseline.closed_of_material_gap(rms(&residual(&against)), rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE)
+        {
+            dropped.extend(immaterial.iter().rev().map(|&k| groups.remove(k)));
+            (stack, cand) = (less, against);
+            continue;
         }
         let Without { less, against, .. } = trials.into_iter().find(|t| t.k == weakest)?;
         dropped.push(groups.remove(weakest));
-        (stack, cand) = (Stack { params: against.fit.params, ..less }, against);
+        (stack, cand) = (less, against);
     };
     if findings.len() != groups.len() || groups.is_empty() {
         return None;
@@ -239,8 +233,7 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
             if j + 1 == order.len() {
                 return Some(cand.clone());
             }
-            let prefix = order[j + 1..].iter().fold(stack.clone(), |s, (g, _)| without(&s, g, nominal));
-            prefix.fit(data, &[prefix.params], n_est, holdout).ok()
+            refitted_without(data, nominal, &stack, order[j + 1..].iter().map(|(g, _)| g), n_est, holdout).map(|(_, fit)| fit)
         })
         .collect();
     let mut out: Vec<EffectFit> = Vec::with_capacity(order.len());

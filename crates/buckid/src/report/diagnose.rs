@@ -162,7 +162,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     page.html(&format!(
         "<p class=\"result\"><b>Verdict: {}</b>{}. Cl of the final model: <b>{}</b>; {}.</p>",
         esc(&dx.verdict),
-        if dx.selected.len() > 1 { format!(" (selected in turn: {})", dx.selected.iter().map(|e| e.label()).collect::<Vec<_>>().join(", ")) } else { String::new() },
+        if dx.selected.len() > 1 { format!(" (selected in turn: {})", labels.join(", ")) } else { String::new() },
         esc(&with_ci(cl, Some(ci95), "F")),
         esc(&si_text(&test)),
     ));
@@ -199,8 +199,9 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
         let rows: Vec<Vec<String>> = dx
             .selected
             .iter()
+            .zip(&labels)
             .enumerate()
-            .map(|(i, e)| vec![format!("{}", i + 1), format!("<b>{}</b>", esc(&e.label())), params_html(e), percent(e.closed_percent), percent(e.closed_of_remaining), si(e.rms_after, "V", 3)])
+            .map(|(i, (e, label))| vec![format!("{}", i + 1), format!("<b>{}</b>", esc(label)), params_html(e), percent(e.closed_percent), percent(e.closed_of_remaining), si(e.rms_after, "V", 3)])
             .collect();
         page.html(&table(&["step", "effect", "parameters at the final fit (CI95)", "gap over the floor closed", "of what was left", "held-out residual RMS"], &rows));
         page.html(&format!("<p>The sequence ended: {}.</p>", esc(&si_text(&dx.selection_ended))));
