@@ -66,7 +66,7 @@ pub struct Fit {
     pub params: Params,
     /// Free parameters, in the model's order.
     pub estimates: Vec<Estimate>,
-    /// Estimated initial state.
+    /// Estimated initial state (of a simulated fit: its [`crate::simulated::Start`], `[v0, dil]`).
     pub x0: Vec<f64>,
     /// Estimated predictor gain (`nx × ny`, row-major); zeros for output error.
     pub gain: Vec<f64>,

@@ -18,11 +18,13 @@
 //! model draws it (gate ramps, a switch node's charge) would bias `Cl` by many of its too-narrow
 //! standard deviations.
 //!
-//! The initial output voltage `v0` (of both capacitors) is estimated with the parameters: in DCM
-//! the converter has a slow first-order mode and forgets its start only after hundreds of
-//! periods. The initial inductor current is the averaged DC value of the first sample's inputs;
-//! its error decays with the LC mode (≈ 11 periods per e-fold) or at the first DCM interval, so
-//! the first [`BURN_IN`] samples are left out of the criterion.
+//! The initial state is estimated with the parameters ([`Start`]: both capacitors' voltage and
+//! the inductor current's departure from the DC point of the first inputs): a record
+//! cut from a running experiment starts wherever the excitation left the converter, and a
+//! lightly damped LC, or DCM's slow first-order mode, forgets its start only after hundreds of
+//! periods. What is left of a start error that the linear part cannot take (the switching
+//! intervals adjusting to it) decays within the first [`BURN_IN`] samples, which are left out
+//! of the criterion.
 use buck_model::variables::{Type, VarId, by_name};
 use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
@@ -44,8 +46,8 @@ pub const MAX_SAMPLE_DELAY: f64 = 0.5;
 /// Forward-difference step in `ln θ`.
 const FD_STEP: f64 = 1e-4;
 
-/// Forward-difference step of the initial voltage [V].
-const V0_STEP: f64 = 1e-4;
+/// Forward-difference steps of the initial state's unknowns ([`Start::unknowns`]): [V], [A].
+const START_STEPS: [f64; Start::UNKNOWNS] = [1e-4, 1e-4];
 
 /// Start values of Cl tried besides the given one [F] (half a decade apart over the thesis range).
 const CL_GRID: [f64; 6] = [0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6];
@@ -62,7 +64,7 @@ const MAX_ITERATIONS: usize = 40;
 const AT_CEILING: f64 = 1e-3;
 
 /// Largest step in `ln θ` per iteration (a factor e).
-const MAX_LOG_STEP: f64 = 1.0;
+pub const MAX_LOG_STEP: f64 = 1.0;
 
 /// What the fit minimizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -79,15 +81,62 @@ pub enum Criterion {
     Differenced,
 }
 
+/// Where a simulation starts: both capacitors at `v0` and the inductor current `dil` above the
+/// DC point of the first inputs (moved by what a load resistor draws at `v0` instead of there).
+/// A record taken from a running experiment starts wherever its excitation left the converter:
+/// a lightly damped LC (a 24 V buck with 10 µH and 220 µF rings for 80 periods per e-fold) is
+/// then amperes and volts away from any DC point for hundreds of samples, and a fit that could
+/// only move `v0` biased Cl and the effects to follow that start. Both are fitted with the
+/// parameters. The capacitors' difference is not: it decays in the fast C–Cl mode (`Rc` times
+/// their series capacitance, a fraction of a period to a few) within the samples left out.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Start {
+    /// Voltage of both capacitors [V].
+    pub v0: f64,
+    /// Inductor current above the DC point's [A].
+    pub dil: f64,
+}
+
+impl From<f64> for Start {
+    /// Both capacitors at `v0`, the inductor current at the DC point.
+    fn from(v0: f64) -> Self {
+        Self { v0, dil: 0.0 }
+    }
+}
+
+impl Start {
+    /// Number of unknowns of a start.
+    pub const UNKNOWNS: usize = 2;
+
+    /// The start a simulated fit ended with (its `x0`), or the DC point at `v0` for any other.
+    pub fn fitted(fit: &Fit, v0: f64) -> Self {
+        if fit.x0.len() == Self::UNKNOWNS { Self::of(&fit.x0) } else { Self::from(v0) }
+    }
+
+    /// The unknowns of a fit, `[v0, dil]`.
+    fn unknowns(self) -> [f64; Self::UNKNOWNS] {
+        [self.v0, self.dil]
+    }
+
+    /// The start of the unknowns `u` (the last [`Start::UNKNOWNS`] of a fit's unknowns).
+    fn of(u: &[f64]) -> Self {
+        match u {
+            [.., v0, dil] => Self { v0: *v0, dil: *dil },
+            _ => Self::default(),
+        }
+    }
+}
+
 /// Simulated `vout` at every period start of `data` (or `p.sample_delay` after it) with circuit
-/// values `p`, starting with both capacitors at `v0` volts, as the reading shows it
-/// (`p.vout_offset`, `p.vout_gain_error`).
-pub fn simulate(p: &Params, data: &DataSet, v0: f64) -> Result<Vec<f64>, EstimatorError> {
-    simulate_outputs(p, data, v0).map(|(vout, _)| vout)
+/// values `p`, starting at `start` (a voltage: both capacitors at it, the DC point's current), as
+/// the reading shows it (`p.vout_offset`, `p.vout_gain_error`).
+pub fn simulate(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<Vec<f64>, EstimatorError> {
+    simulate_outputs(p, data, start).map(|(vout, _)| vout)
 }
 
 /// [`simulate`], with the inductor current at the same instants.
-pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
+pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
+    let Start { v0, dil } = start.into();
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
     let mut conv = Converter::new(Params { fs: 1.0 / period, ..*p }, Mode::Switched);
@@ -101,7 +150,7 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
     // The DC point's current, moved by what a load resistor draws at v0 instead of there.
     let s0 = conv.state();
     let il0 = s0.il + (v0 - s0.vo) * conv.params().load_conductance();
-    conv.set_state(State { il: il0, vc: v0, vo: v0, ic: 0.0 });
+    conv.set_state(State { il: il0 + dil, vc: v0, vo: v0, ic: 0.0 });
     let late = p.sample_delay;
     if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
         return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
@@ -133,7 +182,7 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, v0: f64) -> Result<(Vec<f64>
     }
 }
 
-/// Circuit values with the free parameters set from the unknowns `[ln θ | v0]` (a logit for a
+/// Circuit values with the free parameters set from the unknowns `[ln θ | start]` (a logit for a
 /// fraction below its ceiling: [`Free::to_unknown`]).
 fn with_logs(start: &Params, free: &[Free], unknowns: &[f64]) -> Params {
     let mut p = *start;
@@ -187,7 +236,7 @@ fn without_offsets(p: Params) -> Params {
     Params { vout_offset: 0.0, il_offset: 0.0, il_gain_error: 0.0, ..p }
 }
 
-/// Residuals over the criterion samples `BURN_IN..n_est` at the unknowns `[ln θ | v0]`: those of
+/// Residuals over the criterion samples `BURN_IN..n_est` at the unknowns `[ln θ | start]`: those of
 /// `vout`, then, with an `il_weight`, those of `il` times the weight; each channel differenced
 /// for [`Criterion::Differenced`] (`None` if the simulation fails). With an `il_weight` (the late
 /// reading pinned on both channels) the readings' calibration is first projected out as a
@@ -202,10 +251,10 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
     if !inside {
         return None;
     }
-    let v0 = unknowns[free.len()];
+    let from = Start::of(unknowns);
     let p = with_logs(start, free, unknowns);
     let pinned = il_weight.is_some();
-    let (vout, il) = simulate_outputs(&if pinned { without_offsets(p) } else { p }, estimation, v0).ok()?;
+    let (vout, il) = simulate_outputs(&if pinned { without_offsets(p) } else { p }, estimation, from).ok()?;
     // Each channel's calibration where pinned: vout's offset; il's offset and gain (a current
     // probe's gain scales il's transients, amperes after each duty step, which pulled the
     // instant from 92 to 42 ns at 1 %).
@@ -226,14 +275,14 @@ fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataS
     Some(DVector::from_vec(r))
 }
 
-/// Jacobian of the simulated output (`−∂r/∂[ln θ | v0]`) by forward differences from `r0`, one
+/// Jacobian of the simulated output (`−∂r/∂[ln θ | start]`) by forward differences from `r0`, one
 /// simulation per column, the columns in parallel (a lone slow fit, a bias law or a saturation
 /// knee, then uses both cores).
 fn jacobian(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
     let columns: Option<Vec<DVector<f64>>> = (0..unknowns.len())
         .into_par_iter()
         .map(|i| {
-            let h = if i < free.len() { FD_STEP } else { V0_STEP };
+            let h = if i < free.len() { FD_STEP } else { START_STEPS[i - free.len()] };
             // Forward, or backward at the upper end of a parameter's range.
             let at = |step: f64| {
                 let mut u = unknowns.to_vec();
@@ -288,9 +337,9 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
             data.len()
         )));
     }
-    // The unknowns `[ln θ | v0]` of each start; the initial voltage starts at the first
-    // measured sample.
-    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.to_unknown(f.get(s))).chain([data.vout[0]]).collect()).collect();
+    // The unknowns `[ln θ | start]` of each start; the initial voltage starts at the first
+    // measured sample, the rest at the DC point.
+    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.to_unknown(f.get(s))).chain(Start::from(data.vout[0]).unknowns()).collect()).collect();
     if tries.iter().flatten().any(|l| !l.is_finite()) {
         return Err(EstimatorError::Config("start values of free parameters must be positive".into()));
     }
@@ -339,17 +388,17 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
                 // that projection here; its own vout gain is fitted with the rest.
                 let joint_at: Vec<usize> = (0..free.len()).filter(|&k| free[k] != Free::VoutOffset).collect();
                 let joint_free: Vec<Free> = joint_at.iter().map(|&k| free[k]).collect();
-                let joint_logs: Vec<f64> = joint_at.iter().map(|&k| logs[k]).chain([logs[free.len()]]).collect();
+                let joint_logs: Vec<f64> = joint_at.iter().map(|&k| logs[k]).chain(logs[free.len()..].iter().copied()).collect();
                 let joint = minimize(start, &joint_free, joint_logs, &estimation, criterion, Some(weight))?;
                 let (_, cov) = noise_and_covariance(&joint, criterion)?;
                 let mut logs = logs;
                 for (k, l) in joint_at.iter().zip(&joint.logs) {
                     logs[*k] = *l;
                 }
-                logs[free.len()] = joint.logs[joint_free.len()];
+                logs[free.len()..].copy_from_slice(&joint.logs[joint_free.len()..]);
                 // The instant is held, with the il reading's calibration that goes with it.
                 let mut held = with_logs(start, free, &logs);
-                let (_, il) = simulate_outputs(&without_offsets(held), &estimation, logs[free.len()])?;
+                let (_, il) = simulate_outputs(&without_offsets(held), &estimation, Start::of(&logs))?;
                 let measured = estimation.il.as_deref().unwrap_or_default();
                 (held.il_offset, held.il_gain_error) = reading_calibration(&measured[BURN_IN.min(measured.len())..], &il[BURN_IN..]);
                 let at = joint_at.iter().position(|&k| k == i).unwrap_or_default();
@@ -363,7 +412,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     };
     let m = minimize(&start, &free_rest, logs, &estimation, criterion, None)?;
     let (s2, rest_covariance) = noise_and_covariance(&m, criterion)?;
-    // The estimates and covariance in the order of `free` (then v0); the held delay with its
+    // The estimates and covariance in the order of `free` (then the start); the held delay with its
     // variance from the joint fit, uncorrelated with the rest.
     let (covariance, logs) = match delay {
         Some((i, log_delay, var, _)) => {
@@ -380,7 +429,8 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     let seconds = clock.elapsed().as_secs_f64();
     let params = with_logs(start, free, &logs);
     let estimates = pem::log_estimates(free, &logs, &covariance);
-    let sim = simulate(&params, data, logs[free.len()])?;
+    let from = Start::of(&logs);
+    let sim = simulate(&params, data, from)?;
     let measured = data.vout[n_est..].to_vec();
     let simulated = sim[n_est..].to_vec();
     let residual: Vec<f64> = measured.iter().zip(&simulated).map(|(y, s)| y - s).collect();
@@ -395,7 +445,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     let fit = Fit {
         params,
         estimates,
-        x0: Vec::new(),
+        x0: from.unknowns().to_vec(),
         gain: Vec::new(),
         sigma: vec![s2.sqrt()],
         cost: cost / s2.max(1e-300),
@@ -407,7 +457,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     Ok(Candidate { structure: Structure::Simulated, fit, validation, seconds })
 }
 
-/// Where Levenberg–Marquardt ended: the unknowns `[ln θ | v0]`, the residuals and their
+/// Where Levenberg–Marquardt ended: the unknowns `[ln θ | start]`, the residuals and their
 /// Jacobian there, the criterion, and how it got there.
 struct Minimum {
     logs: Vec<f64>,
@@ -418,7 +468,7 @@ struct Minimum {
     converged: bool,
 }
 
-/// Minimizes the criterion over `[ln θ | v0]` of `free` from `logs` (Levenberg–Marquardt on
+/// Minimizes the criterion over `[ln θ | start]` of `free` from `logs` (Levenberg–Marquardt on
 /// forward differences, steps capped at [`MAX_LOG_STEP`]).
 fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Result<Minimum, EstimatorError> {
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
@@ -481,23 +531,35 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
 fn noise_and_covariance(m: &Minimum, criterion: Criterion) -> Result<(f64, DMatrix<f64>), EstimatorError> {
     let ms = m.cost / (m.r.len() - m.logs.len()) as f64;
     match criterion {
-        Criterion::OutputError => Ok((ms, pem::covariance(m.j.transpose() * &m.j, ms)?)),
-        Criterion::Differenced => differenced_covariance(&m.j, ms),
+        Criterion::OutputError => Ok((ms, with_start_current_held(&m.j, |j| pem::covariance(j.transpose() * j, ms))?)),
+        Criterion::Differenced => Ok((ms / 2.0, with_start_current_held(&m.j, |j| differenced_covariance(j, ms))?)),
     }
 }
 
-/// Sensor-noise variance and covariance of the unknowns for the differenced criterion, from the
-/// Jacobian `j` of the differenced residuals and their mean square `ms` (`≈ 2σ²`). Differenced
-/// white noise of variance `σ²` has the covariance `Σ = σ²·tridiag(−1, 2, −1)`, so the
-/// covariance is the sandwich `(JᵀJ)⁻¹·JᵀΣJ·(JᵀJ)⁻¹`.
-fn differenced_covariance(j: &DMatrix<f64>, ms: f64) -> Result<(f64, DMatrix<f64>), EstimatorError> {
+/// The covariance `cov(j)` of the unknowns whose Jacobian is `j`, or, where that is singular,
+/// that of the others with the start's inductor current (the last unknown) held: a converter in
+/// DCM forgets its start current at its first blocked interval, within the samples left out, so
+/// the data says nothing of it and its column vanishes.
+fn with_start_current_held(j: &DMatrix<f64>, cov: impl Fn(&DMatrix<f64>) -> Result<DMatrix<f64>, EstimatorError>) -> Result<DMatrix<f64>, EstimatorError> {
+    cov(j).or_else(|singular| {
+        let n = j.ncols();
+        let held = cov(&j.columns(0, n - 1).into_owned()).map_err(|_| singular)?;
+        Ok(held.insert_column(n - 1, 0.0).insert_row(n - 1, 0.0))
+    })
+}
+
+/// Covariance of the unknowns for the differenced criterion, from the Jacobian `j` of the
+/// differenced residuals and their mean square `ms` (`≈ 2σ²`, σ² the sensor-noise variance).
+/// Differenced white noise of variance `σ²` has the covariance `Σ = σ²·tridiag(−1, 2, −1)`, so
+/// the covariance is the sandwich `(JᵀJ)⁻¹·JᵀΣJ·(JᵀJ)⁻¹`.
+fn differenced_covariance(j: &DMatrix<f64>, ms: f64) -> Result<DMatrix<f64>, EstimatorError> {
     let s2 = ms / 2.0;
     let jtj = j.transpose() * j;
     let n = j.nrows();
     let lag = j.rows(0, n - 1).transpose() * j.rows(1, n - 1);
     let meat = (&jtj * 2.0 - &lag - lag.transpose()) * s2;
     let bread = pem::covariance(jtj, 1.0)?;
-    Ok((s2, &bread * meat * &bread))
+    Ok(&bread * meat * &bread)
 }
 
 #[cfg(test)]

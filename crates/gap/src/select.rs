@@ -20,7 +20,7 @@ use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use estimator::simulated::{Criterion, fit_from_exactly};
-use estimator::simulated::{BURN_IN, simulate};
+use estimator::simulated::{BURN_IN, Start, simulate};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -204,9 +204,14 @@ impl Stack {
             return out;
         }
         let diode = has("diode_drop") || has("dcm");
-        // A real diode's drop grows with its current: once a diode conducts in the model (the
-        // low side, or the body diodes in dead time), its slope resistance.
-        if (diode || has("dead_time")) && !self.free.contains(&Free::DiodeResistance) {
+        // A real diode's drop grows with its current: once a diode conducts in the model, its
+        // slope resistance. In a synchronous buck the body diodes conduct only in the dead time,
+        // where, with il of one sign at both edges, `Rd` drops `2·td·fs·Rd·il` on average: the
+        // switches' resistance to the volt, at fifty times the ohms (a 15 mΩ half bridge was
+        // named a 0.76 Ω body diode on a 24 V buck). So there it refines a model that already
+        // has the switches' resistance, never stands in for it.
+        let switches = self.free.contains(&Free::SwitchResistance) || self.free.contains(&Free::RL);
+        if (diode || (has("dead_time") && switches)) && !self.free.contains(&Free::DiodeResistance) {
             out.push(self.freeing("diode_resistance", Free::DiodeResistance, &DIODE_RESISTANCE_STARTS, p.diode_resistance + PROBE_RESISTANCE));
         }
         // Where both switches are ever off (dead time, a diode buck's off-time), il charges the
@@ -403,6 +408,8 @@ const SCREEN_ROUNDS: usize = 2;
 /// extension's direction (its simulation at the probe values less the model's) is tested.
 struct Linearization {
     est: DataSet,
+    /// Where the model's simulation starts (as its fit has it).
+    start: Start,
     y0: DVector<f64>,
     a: DMatrix<f64>,
     inv: DMatrix<f64>,
@@ -410,9 +417,9 @@ struct Linearization {
 }
 
 impl Linearization {
-    fn at(data: &DataSet, stack: &Stack, n_est: usize) -> Option<Self> {
+    fn at(data: &DataSet, stack: &Stack, start: Start, n_est: usize) -> Option<Self> {
         let est = stack.data(data).slice(0..n_est);
-        let y0 = Self::run(&stack.params, &est)?;
+        let y0 = Self::run(&stack.params, &est, start)?;
         let r = DVector::from_vec(est.vout[BURN_IN..].to_vec()) - &y0;
         let mut columns = Vec::new();
         // A late reading that il pins is held while the rest is fitted to vout (see
@@ -421,17 +428,17 @@ impl Linearization {
         for f in stack.free.iter().filter(|f| !pinned(f)) {
             let mut p = stack.params;
             f.set(&mut p, f.from_unknown(f.to_unknown(f.get(&stack.params)) + 1e-3));
-            columns.push((Self::run(&p, &est)? - &y0) / 1e-3);
+            columns.push((Self::run(&p, &est, start)? - &y0) / 1e-3);
         }
         let a = DMatrix::from_columns(&columns);
         let inv = (a.transpose() * &a).try_inverse()?;
-        let mut lin = Self { est, y0, a, inv, r_perp: DVector::zeros(0) };
+        let mut lin = Self { est, start, y0, a, inv, r_perp: DVector::zeros(0) };
         lin.r_perp = lin.project(&r);
         Some(lin)
     }
 
-    fn run(p: &Params, d: &DataSet) -> Option<DVector<f64>> {
-        simulate(p, d, d.vout[0]).ok().map(|y| DVector::from_vec(y[BURN_IN..].to_vec()))
+    fn run(p: &Params, d: &DataSet, start: Start) -> Option<DVector<f64>> {
+        simulate(p, d, start).ok().map(|y| DVector::from_vec(y[BURN_IN..].to_vec()))
     }
 
     /// `v` less its projection on the sensitivities.
@@ -445,7 +452,7 @@ impl Linearization {
     /// where the simulator cannot run the probe (its fit decides).
     fn promise(&self, data: &DataSet, stack: &Stack, x: &Extension, n_est: usize) -> Option<(f64, f64)> {
         let own = if x.stack.delay == stack.delay { self.est.clone() } else { x.stack.data(data).slice(0..n_est) };
-        let Some(y) = Self::run(&x.probe, &own) else { return Some((f64::INFINITY, f64::INFINITY)) };
+        let Some(y) = Self::run(&x.probe, &own, self.start) else { return Some((f64::INFINITY, f64::INFINITY)) };
         let step = y - &self.y0;
         let s = self.project(&step);
         let ss = s.norm_squared();
@@ -461,12 +468,14 @@ impl Linearization {
 
 /// The extensions worth a nonlinear fit on switched data, the largest promised drop first: the
 /// score (Lagrange multiplier) test of each at its start,
-/// from one simulation each ([`Linearization`]). The drop in the squared error the direction
-/// adds, over the noise variance `sigma2`, is χ²₁ when the extension explains nothing. Kept
+/// from one simulation each ([`Linearization`] at `against`, the fit of `stack`). The drop in the
+/// squared error the direction adds, over the noise variance of `against`, is χ²₁ when the
+/// extension explains nothing. Kept
 /// when significant at 1 %, promising at least [`SCREEN_SHARE`] of the estimation gap power
 /// `gap_power` above the floor [V²], and moving `ln Cl` by at least `cl_move`.
-fn screen(data: &DataSet, stack: &Stack, extensions: Vec<Extension>, sigma2: f64, gap_power: f64, cl_move: f64, n_est: usize) -> Vec<Extension> {
-    let Some(lin) = Linearization::at(data, stack, n_est) else { return extensions };
+fn screen(data: &DataSet, stack: &Stack, against: &Candidate, extensions: Vec<Extension>, gap_power: f64, cl_move: f64, n_est: usize) -> Vec<Extension> {
+    let sigma2 = variance(against);
+    let Some(lin) = Linearization::at(data, stack, Start::fitted(&against.fit, data.vout[0]), n_est) else { return extensions };
     let limit = estimator::validate::chi2_99(1);
     let rows = lin.y0.len() as f64;
     let mut promising: Vec<(f64, Extension)> = extensions
@@ -523,7 +532,7 @@ pub(crate) fn for_cl(
     // it; what makes the output-error and high-pass fits disagree is in the dynamics.
     let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
-    let mut extensions = screen(data, &stack, extensions, variance(&against), 0.0, 0.5 * baseline.tolerance, n_est);
+    let mut extensions = screen(data, &stack, &against, extensions, 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
     // Material to Cl: it moves Cl by more than the tolerance of the nominal values.
     let trials: Vec<(EffectFit, Candidate)> = extensions
@@ -651,7 +660,7 @@ pub(crate) fn forward(
                 rest.clear();
             }
             let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
-            let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, rest, variance(&against), gap_power, 0.0, n_est));
+            let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
         // A reading's calibration is the explanation of last resort (see `best_material`): never
