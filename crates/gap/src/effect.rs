@@ -8,6 +8,7 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
+use estimator::simulated::MAX_LOG_STEP;
 use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
@@ -154,10 +155,17 @@ pub struct EffectFit {
     /// nominal is consistent with the data, whatever the statistics say.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub within_tolerance: bool,
-    /// A fitted parameter (Cl included) ended on a bound of its range, or a drift beyond
-    /// [`MAX_DRIFT`]: the fit has not converged to something physical, whatever it closes.
+    /// One of the effect's parameters ended on a bound of its range, or a drift beyond
+    /// [`MAX_DRIFT`], or the fit ran Cl onto a bound of its range from a model that had it
+    /// inside (the effect took Cl's share of the data): the fit has not converged to something
+    /// physical, whatever it closes.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub at_bound: bool,
+    /// Cl ended on a bound of its range. Where the model the effect extends had lost Cl too (a
+    /// nominal far from the data, e.g. a diode buck ringing in DCM fitted as a synchronous one),
+    /// the effect is judged on what it closes, and its values and Cl are not converged.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub cl_on_bound: bool,
     /// Significant, material, converged inside its range and (for a drift) outside the
     /// tolerance: an effect to report. For `sample_delay`, also when the inductor current
     /// shows it by itself ([`EffectFit::il_closed_percent`]).
@@ -202,12 +210,14 @@ impl EffectFit {
         self.cl = ClMove::of(cand, baseline.cl);
     }
 
-    /// Its standing in words: `finding`, `within tolerance`, `significant, immaterial`,
-    /// `not significant` or `not identifiable`.
+    /// Its standing in words: `finding` (`in il`, `for Cl`, `Cl on a bound`), `ended on a
+    /// bound`, `within tolerance`, `significant, immaterial`, `not significant` or `not
+    /// identifiable`.
     pub fn standing(&self) -> &'static str {
         match (self.finding, self.significant, self.within_tolerance, self.material, self.identifiable) {
             (true, ..) if !self.material && self.il_closed_percent.is_some() => "finding (in il)",
             (true, ..) if !self.material && self.cl_test_failed_without.is_some() => "finding (for Cl)",
+            (true, ..) if self.cl_on_bound => "finding (Cl on a bound)",
             (true, ..) => "finding",
             _ if self.at_bound && self.significant => "ended on a bound",
             (false, true, true, ..) => "within tolerance",
@@ -323,15 +333,21 @@ pub fn gap_above(rms: f64, floor: f64) -> bool {
 /// design table's ±20 %): beyond it the freed value stands in for something else.
 pub const MAX_DRIFT: f64 = 0.5;
 
-/// Relative distance from a range's bound within which a fit counts as ended on it.
+/// Relative distance from a fraction's ceiling within which a fit counts as ended on it.
 const AT_BOUND: f64 = 1e-3;
 
 /// Whether `value` of the variable `name` lies on (or beyond) a bound of its range in the
 /// variable table (names without a range, or a lower bound of 0 that a log-scale fit cannot
-/// reach, never are).
+/// reach, never are). A log-scale fit whose next step would leave the range has its step
+/// refused (the simulator rejects the value) and stops up to one largest step short of the
+/// bound ([`MAX_LOG_STEP`] in `ln θ`): a load capacitance that crept to 1.1 nF against the
+/// range's 1 nF has run onto the bound as much as one that reached it. A fraction, fitted as
+/// a logit below its ceiling, is on it within [`AT_BOUND`].
 fn on_bound(name: &str, value: f64) -> bool {
+    let log_scale = Free::from_name(name).is_none_or(|f| f.ceiling().is_none() && f.signed_scale().is_none());
+    let slack = if log_scale { MAX_LOG_STEP.exp() } else { 1.0 / (1.0 - AT_BOUND) };
     match buck_model::variables::by_name(name).map(|v| v.ty) {
-        Some(buck_model::variables::Type::Real { min, max, .. }) => value >= max * (1.0 - AT_BOUND) || (min > 0.0 && value <= min * (1.0 + AT_BOUND)),
+        Some(buck_model::variables::Type::Real { min, max, .. }) => value * slack >= max || (min > 0.0 && value <= min * slack),
         _ => false,
     }
 }
@@ -575,6 +591,10 @@ pub struct ClCheck {
     pub hausman: f64,
     /// Its 99 % critical value.
     pub limit: f64,
+    /// The high-pass fit ran Cl onto the edge of its range: that criterion prefers no Cl at
+    /// all (or an unbounded one), which is no confirmation of the tested interval, however
+    /// wide its own.
+    pub high_pass_on_bound: bool,
     /// The two estimates agree (the reported CI95 is then the hull of both intervals); when
     /// not, that hull is widened by their distance on each side.
     pub consistent: bool,
@@ -590,11 +610,15 @@ pub(crate) fn log_width([lo, hi]: [f64; 2]) -> f64 {
 
 impl ClCheck {
     /// The test's verdict on the two fits: consistent when the Hausman statistic is within its
-    /// limit, and then the more precise fit reported.
+    /// limit and the high-pass fit converged inside Cl's range, and then the more precise fit
+    /// reported. (A high-pass fit that ran Cl onto a bound has an interval reaching zero or
+    /// infinity, so any distance passes Hausman's test: a 3.4 µF output-error Cl, five times the
+    /// true 0.71 µF of a diode buck ringing in DCM, was "confirmed" by a high-pass 1.7 nF.)
     pub(crate) fn new(estimate: f64, model_ci95: [f64; 2], high_pass: f64, high_pass_ci95: [f64; 2], hausman: f64, limit: f64) -> Self {
-        let consistent = hausman.is_finite() && hausman <= limit;
+        let high_pass_on_bound = on_bound("Cl", high_pass);
+        let consistent = !high_pass_on_bound && hausman.is_finite() && hausman <= limit;
         let high_pass_reported = consistent && log_width(high_pass_ci95) < log_width(model_ci95);
-        Self { estimate, high_pass, high_pass_ci95, model_ci95, hausman, limit, consistent, high_pass_reported }
+        Self { estimate, high_pass, high_pass_ci95, model_ci95, hausman, limit, high_pass_on_bound, consistent, high_pass_reported }
     }
 
     /// The estimate and CI95 to report. Of two fits that agree, the more precise one's estimate
@@ -627,6 +651,8 @@ impl std::fmt::Display for ClCheck {
             write!(f, "the high-pass refit agrees (Hausman {:.1} ≤ {:.1}) and pins Cl down closer than the output-error fit: its estimate is reported; {interval}", self.hausman, self.limit)
         } else if self.consistent {
             write!(f, "the high-pass refit agrees ({:.4} µF, Hausman {:.1} ≤ {:.1}): {interval}", self.high_pass * 1e6, self.hausman, self.limit)
+        } else if self.high_pass_on_bound {
+            write!(f, "widened: the high-pass refit runs Cl onto the edge of its range ({:.4} µF), so the model still misses something that moves Cl", self.high_pass * 1e6)
         } else {
             write!(
                 f,
@@ -662,9 +688,10 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let closed_of_remaining = baseline.closed_of_material_gap(rms(&self::residual(against)), rms_after);
     let material = closed_of_remaining.is_some_and(|c| c >= MATERIAL_SHARE);
     let within_tolerance = t.drift.is_some_and(|d| d.abs() <= baseline.tolerance);
-    let cl = t.cand.fit.estimate("Cl").map(|e| e.value);
+    let cl_on = |c: &Candidate| c.fit.estimate("Cl").is_some_and(|e| on_bound("Cl", e.value));
+    let cl_on_bound = cl_on(&t.cand);
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
-        || cl.is_some_and(|c| on_bound("Cl", c))
+        || (cl_on_bound && !cl_on(against))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT);
     let fit = EffectFit {
         name,
@@ -686,6 +713,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         drift_percent: t.drift.map(|d| 100.0 * d),
         within_tolerance,
         at_bound,
+        cl_on_bound,
         finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
         il_closed_percent: None,
@@ -708,6 +736,13 @@ mod tests {
         assert!(!on_bound("cap_dc_bias", 0.85));
         assert!(!on_bound("cap_dc_bias", 1e-9));
         assert!(!on_bound("no_such_variable", 1e9));
+        // A log-scale fit stops up to one largest step short of the bound the simulator refuses.
+        assert!(on_bound("Cl", 1.1e-9));
+        assert!(on_bound("Cl", 2.5e-9));
+        assert!(!on_bound("Cl", 3e-9));
+        assert!(!on_bound("Cl", 0.2e-6));
+        assert!(on_bound("dead_time", 5e-6));
+        assert!(!on_bound("dead_time", 100e-9));
     }
 
     /// Of two fits that agree, the more precise estimate is reported, in the hull of both
@@ -727,6 +762,13 @@ mod tests {
         let (cl, [lo, hi]) = apart.reported();
         assert_eq!(cl, 1.2e-6);
         assert!((lo - 0.75e-6).abs() < 1e-12 && (hi - 1.56e-6).abs() < 1e-12, "hull [{lo}, {hi}]");
+        // A high-pass fit that ran Cl onto the range's bound passes Hausman's test with its
+        // unbounded interval, and confirms nothing: the interval reported pins nothing down.
+        let edge = ClCheck::new(3.4e-6, [2.7e-6, 4.3e-6], 1.7e-9, [0.0, f64::INFINITY], 0.0, 6.63);
+        assert!(edge.high_pass_on_bound && !edge.consistent);
+        let (cl, ci) = edge.reported();
+        assert_eq!(cl, 3.4e-6);
+        assert!(!estimator::validate::identified(ci), "{ci:?}");
     }
 
     /// White residuals leave an interval alone; residuals coloured like a model error (AR(1),

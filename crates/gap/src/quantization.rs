@@ -105,6 +105,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         drift_percent: None,
         within_tolerance: false,
         at_bound: false,
+        cl_on_bound: false,
         finding: material,
         ruled_out_above: None,
         il_closed_percent: None,
