@@ -63,6 +63,10 @@ const MAX_ITERATIONS: usize = 40;
 /// the logit would take it closer by ever smaller amounts.
 const AT_CEILING: f64 = 1e-3;
 
+/// Starts from which the sampling instant's joint fit on both channels goes (the best by the
+/// criterion at the start).
+const PINNED_STARTS: usize = 2;
+
 /// Largest step in `ln θ` per iteration (a factor e).
 pub const MAX_LOG_STEP: f64 = 1.0;
 
@@ -367,11 +371,12 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     // fit on the log scale slides toward zero and stays).
     let weight = pinned.filter(|_| criterion == Criterion::OutputError).map(|(_, w)| w);
     let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
-    let logs = if tries.len() == 1 {
-        tries.swap_remove(0)
-    } else {
-        tries.into_iter().map(|u| (cost_at(&u), u)).min_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, u)| u).unwrap_or_default()
-    };
+    if tries.len() > 1 {
+        let mut ranked: Vec<(f64, Vec<f64>)> = tries.into_iter().map(|u| (cost_at(&u), u)).collect();
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        tries = ranked.into_iter().map(|(_, u)| u).collect();
+    }
+    let logs = tries.first().cloned().unwrap_or_default();
     let (start, free_rest, logs, delay) = match pinned {
         Some((i, weight)) => {
             // The high-pass refit tests the rest of a model whose instant the output-error fit
@@ -386,12 +391,19 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
                 // tells them apart); vout's level moves with a probe's offset or any unmodelled
                 // drop, which would pull the instant. The model's own vout offset, if any, is
                 // that projection here; its own vout gain is fitted with the rest.
+                // From the best [`PINNED_STARTS`] starts: the instant's criterion has a valley per
+                // ripple feature a delay can line up with, and the start ranked best, its other
+                // values fitted without the delay, can sit in a wrong one.
                 let joint_at: Vec<usize> = (0..free.len()).filter(|&k| free[k] != Free::VoutOffset).collect();
                 let joint_free: Vec<Free> = joint_at.iter().map(|&k| free[k]).collect();
-                let joint_logs: Vec<f64> = joint_at.iter().map(|&k| logs[k]).chain(logs[free.len()..].iter().copied()).collect();
-                let joint = minimize(start, &joint_free, joint_logs, &estimation, criterion, Some(weight))?;
+                let joint_logs = |u: &Vec<f64>| -> Vec<f64> { joint_at.iter().map(|&k| u[k]).chain(u[free.len()..].iter().copied()).collect() };
+                let (joint, mut logs) = tries
+                    .par_iter()
+                    .take(PINNED_STARTS)
+                    .filter_map(|u| minimize(start, &joint_free, joint_logs(u), &estimation, criterion, Some(weight)).ok().map(|m| (m, u.clone())))
+                    .min_by(|a, b| a.0.cost.total_cmp(&b.0.cost))
+                    .ok_or_else(|| EstimatorError::Fit("the simulation fails at every start of the sampling instant".into()))?;
                 let (_, cov) = noise_and_covariance(&joint, criterion)?;
-                let mut logs = logs;
                 for (k, l) in joint_at.iter().zip(&joint.logs) {
                     logs[*k] = *l;
                 }
