@@ -4,8 +4,8 @@
 //! five or six at once (a late ADC, dead time, the switches' resistance, an inductor 12 % low and a
 //! capacitor's ESR 40 % low), and a greedy path through them takes stand-ins that explain a
 //! part of several (a load ESR, C drifted) and ends with a model that still misses materially,
-//! the sequence full. Where it misses by more than [`MISS_FLOORS`] noise floors, the model is
-//! refitted with, besides the effects selected, what every converter of its kind carries free
+//! the sequence full. Where it misses materially with the sequence full, or by more than
+//! [`MISS_FLOORS`] noise floors, the model is refitted with, besides the effects selected, what every converter of its kind carries free
 //! at once: the drifts of L, C and Rc, the switches' resistance, the late reading (where il is
 //! recorded), the vout reading's gain, and, where something conducts while both switches are
 //! off, the switch node's capacitance and a diode's slope resistance. When that model closes a
@@ -123,7 +123,9 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
 /// material first), each with its step's fit. Returns what changed.
 pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
     let last = selected.last()?;
-    if baseline.misses_materially(last.rms_after) != Some(true) || baseline.floor.is_none_or(|f| last.rms_after < MISS_FLOORS * f) {
+    // A full sequence that still misses materially ran out of steps, not of effects.
+    let full = selected.len() >= crate::select::MAX_EFFECTS;
+    if baseline.misses_materially(last.rms_after) != Some(true) || (!full && baseline.floor.is_none_or(|f| last.rms_after < MISS_FLOORS * f)) {
         return None;
     }
     let fits: Vec<&EffectFit> = selected.iter().collect();

@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use crate::effect::{Baseline, ClCheck, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, calibrates_reading, il_calibration, Trial, delayed, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
-const MAX_EFFECTS: usize = 4;
+pub(crate) const MAX_EFFECTS: usize = 4;
 
 /// Extra series resistance tried as starts on top of the model's `RL` [Ω].
 const RESISTANCE_STARTS: [f64; 2] = [0.0, 0.03];
