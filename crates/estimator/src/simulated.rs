@@ -513,10 +513,12 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                 Some(rt) if rt.norm_squared() < cost => {
                     let gain = cost - rt.norm_squared();
                     // Converged when the decrease is far below one unit of the criterion's
-                    // noise (σ²) or every step is far inside its own standard deviation.
+                    // noise (σ²: a hundredth, a likelihood-ratio statistic's worth of 0.01) or
+                    // every step is far inside its own standard deviation. (A millionth cost
+                    // iterations that move nothing a test or an interval can see.)
                     let s2 = cost / dof;
                     let small = (0..np).all(|i| step[i].abs() <= 1e-3 * (s2 / jtj[(i, i)].max(1e-300)).sqrt());
-                    converged = gain <= 1e-6 * s2 || small;
+                    converged = gain <= 1e-2 * s2 || small;
                     logs = trial;
                     r = rt;
                     cost = r.norm_squared();
