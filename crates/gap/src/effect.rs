@@ -558,8 +558,10 @@ impl SimulatedEffect {
             params.insert("dcm".to_string(), 1.0);
         }
         // A late reading comes with the il reading's calibration, fitted beside it as a nuisance
-        // (no interval of its own: it is not the effect).
-        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) {
+        // (no interval of its own: it is not the effect), where the data has il to fit it on (a
+        // least-squares calibration is never exactly none; without il it is, and says nothing).
+        let p = &cand.fit.params;
+        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) && (p.il_offset != 0.0 || p.il_gain_error != 0.0) {
             params.extend(il_calibration(&cand.fit.params));
         }
         // A bias law is read against the voltages it was fitted for (see `bias_reference`).
