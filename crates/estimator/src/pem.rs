@@ -321,8 +321,10 @@ fn with_free(nominal: &Params, free: &[Free], logs: &[f64]) -> Params {
 /// Samples used to rank the grid of start values.
 const GRID_SAMPLES: usize = 1000;
 
-/// Grid of start values for Cl [F], log-spaced over 0.1–200 µF (a half decade apart).
-const CL_GRID: [f64; 8] = [0.1e-6, 0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6, 300e-6];
+/// Grid of start values for Cl as multiples of the main capacitance C, log-spaced a half decade
+/// apart (0.1–300 µF beside the thesis's 100 µF): a load capacitance is judged against the
+/// converter's own output capacitance, at any scale.
+const CL_GRID: [f64; 8] = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
 
 /// Factors on the start value of each free parameter other than Cl tried with the Cl grid (a
 /// series resistance or a drifted L, C, Rc starts from its nominal value, which can be far).
@@ -390,7 +392,7 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
         let mut best = (f64::INFINITY, logs.clone());
         for point in 0..CL_GRID.len() * scales.len().pow(others.len() as u32) {
             let mut trial = logs.clone();
-            trial[ci] = CL_GRID[point % CL_GRID.len()].ln();
+            trial[ci] = (CL_GRID[point % CL_GRID.len()] * nominal.c).ln();
             let mut rest = point / CL_GRID.len();
             for &i in &others {
                 trial[i] += scales[rest % scales.len()].ln();

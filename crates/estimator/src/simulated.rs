@@ -49,8 +49,9 @@ const FD_STEP: f64 = 1e-4;
 /// Forward-difference steps of the initial state's unknowns ([`Start::unknowns`]): [V], [A].
 const START_STEPS: [f64; Start::UNKNOWNS] = [1e-4, 1e-4];
 
-/// Start values of Cl tried besides the given one [F] (half a decade apart over the thesis range).
-const CL_GRID: [f64; 6] = [0.3e-6, 1e-6, 3e-6, 10e-6, 30e-6, 100e-6];
+/// Start values of Cl tried besides the given one, as multiples of the main capacitance C (half
+/// a decade apart: 0.3–100 µF beside the thesis's 100 µF).
+const CL_GRID: [f64; 6] = [3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0];
 
 /// Smallest noise level a channel is credited with, as a fraction of its range: noise-free
 /// (simulated) data then weights `vout` and `il` by their spans instead of by rounding error.
@@ -356,7 +357,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     if let (Some(ci), true) = (free.iter().position(|f| *f == Free::Cl), cl_grid) {
         tries = tries
             .into_iter()
-            .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|c| c.ln())).map(move |l| {
+            .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|k| (k * start.c).ln())).map(move |l| {
                 let mut u = t.clone();
                 u[ci] = l;
                 u

@@ -489,27 +489,43 @@ pub(crate) fn delayed(data: &DataSet, n: usize) -> DataSet {
 }
 
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
-/// saturation, a voltage-dependent Cl): name, extra free parameters with start values, and
-/// whether the effect switches the half bridge to a diode low side (`dcm`).
+/// saturation, a voltage-dependent Cl): name, extra free parameters with start values (in units
+/// of [`start_unit`]: a time as a fraction of the period, a load ESR as one of C's), and whether
+/// the effect switches the half bridge to a diode low side (`dcm`).
 pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
     // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
     // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], dcm: false },
     SimulatedEffect { name: "dcm", extra: &[], also_from: &[], dcm: true },
-    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 20e-9)], also_from: &[60e-9], dcm: false },
+    // A dead time of 0.7 % and 2 % of the period (20 and 60 ns at 330 kHz).
+    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 1.0 / 150.0)], also_from: &[1.0 / 50.0], dcm: false },
     SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[0.4], dcm: false },
     SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[0.15], dcm: false },
-    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 10e-3)], also_from: &[40e-3], dcm: false },
+    // A tenth and four tenths of C's ESR (10 and 40 mΩ beside the thesis's 100 mΩ).
+    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 0.1)], also_from: &[0.4], dcm: false },
     SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[0.3e-9], dcm: false },
     // Not in the design table: data acquired a little after each period start (an ADC that
-    // samples late reads vout partway along the ripple, which mimics a different Cl).
-    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 50e-9)], also_from: &[200e-9, 600e-9], dcm: false },
+    // samples late reads vout partway along the ripple, which mimics a different Cl); 1/60, 1/15
+    // and 1/5 of the period (50, 200 and 600 ns at 330 kHz).
+    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 15.0, 1.0 / 5.0], dcm: false },
     // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
     // zero error and a divider's or an attenuator's gain error (linear in the reading: one
     // start each, a small step away from zero so the screen sees its direction).
     SimulatedEffect { name: "sensor_offset", extra: &[(Free::VoutOffset, 1e-3)], also_from: &[], dcm: false },
     SimulatedEffect { name: "sensor_gain", extra: &[(Free::VoutGainError, 1e-3)], also_from: &[], dcm: false },
 ];
+
+/// The unit of a start value of `f` in the circuit `p`: the period for a time (a converter at
+/// 50 kHz has its dead time and its ADC's delay in hundreds of nanoseconds, one at 1 MHz in
+/// tens), C's ESR for Cl's, one for the rest (a diode's drop, a fraction, a package's ESL are
+/// what they are at any scale).
+fn start_unit(f: Free, p: &Params) -> f64 {
+    match f {
+        Free::DeadTime | Free::SampleDelay => p.period(),
+        Free::LoadEsr => p.rc,
+        _ => 1.0,
+    }
+}
 
 /// A nonlinear effect fitted with the plant simulator.
 pub(crate) struct SimulatedEffect {
@@ -532,13 +548,13 @@ impl SimulatedEffect {
     pub fn starts(&self, base: &Params, io_mean: f64) -> Vec<Params> {
         let mut p = Params { dcm: base.dcm || self.dcm, ..*base };
         for &(f, v) in self.extra {
-            f.set(&mut p, if v.is_nan() { io_mean.abs() + 0.5 } else { v });
+            f.set(&mut p, if v.is_nan() { io_mean.abs() + 0.5 } else { v * start_unit(f, base) });
         }
         let mut starts = vec![p];
         if let Some(&(f, _)) = self.extra.first() {
             starts.extend(self.also_from.iter().map(|&v| {
                 let mut q = p;
-                f.set(&mut q, v);
+                f.set(&mut q, v * start_unit(f, base));
                 q
             }));
         }

@@ -69,9 +69,10 @@ impl Without {
     }
 }
 
-/// A simulated effect's first start value, as its candidate has it ([`SIMULATED_EFFECTS`]).
-fn candidate_start(name: &str) -> Option<f64> {
-    SIMULATED_EFFECTS.iter().find(|e| e.name == name)?.extra.first().map(|x| x.1)
+/// The first start value of a simulated effect's parameter `f` on top of `base`, as its
+/// candidate has it ([`SIMULATED_EFFECTS`]).
+fn candidate_start(name: &str, f: Free, base: &Params) -> Option<f64> {
+    SIMULATED_EFFECTS.iter().find(|e| e.name == name)?.starts(base, 0.0).first().map(|p| f.get(p))
 }
 
 /// The model without `g`: its parameters free no more, at their nominal values (a late
@@ -148,14 +149,14 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_STARTS[0].max(stack.params.switch_resistance)));
     }
     if data.il.is_some() {
-        adds.push(("sample_delay", Free::SampleDelay, candidate_start("sample_delay")?));
+        adds.push(("sample_delay", Free::SampleDelay, candidate_start("sample_delay", Free::SampleDelay, &stack.params)?));
     }
     if diode || has("dead_time") {
         adds.push(("switch_node_capacitance", Free::SwitchNodeCapacitance, SWITCH_NODE_CAPACITANCE_STARTS[0].max(stack.params.switch_node_capacitance)));
     }
     // A divider's or a probe's gain error (its zero error is a resistance's drop at a constant
     // load: left to the forward selection, which names the circuit first).
-    adds.push(("sensor_gain", Free::VoutGainError, candidate_start("sensor_gain")?));
+    adds.push(("sensor_gain", Free::VoutGainError, candidate_start("sensor_gain", Free::VoutGainError, &stack.params)?));
     if diode {
         adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_STARTS[0].max(stack.params.diode_resistance)));
     }
