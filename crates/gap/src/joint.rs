@@ -177,9 +177,11 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     // dropped (one whose parameters are not identified before any other).
     let mut dropped = Vec::new();
     let findings = loop {
-        // A parameter the data does not pin down beside the others: its effect goes first.
-        let lost = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1]));
-        if let Some(k) = lost.and_then(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name))) {
+        // A parameter the data does not pin down beside the others: its effect goes first, one the
+        // refit added before one the selection found (a diode's drop lost beside the slope
+        // resistance and node capacitance added to it is the diode's, not theirs to take).
+        let lost: Vec<usize> = cand.fit.estimates.iter().filter(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1])).filter_map(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name))).collect();
+        if let Some(&k) = lost.iter().find(|&&k| !groups[k].selected).or(lost.first()) {
             (stack, cand) = refitted_without(data, nominal, &stack, [&groups[k]], n_est, holdout)?;
             dropped.push(groups.remove(k));
             continue;
@@ -219,7 +221,9 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         dropped.push(groups.remove(weakest));
         (stack, cand) = (less, against);
     };
-    if findings.len() != groups.len() || groups.is_empty() {
+    // The pruned model must still do what the refit was for: close a material share of the gap
+    // the selection left (pruning a found effect can bring the rest down with it).
+    if findings.len() != groups.len() || groups.is_empty() || baseline.closed_of_material_gap(last.rms_after, rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE) {
         return None;
     }
     // In sequence: the selected effects kept, in their order, then those added, the most
