@@ -68,6 +68,10 @@ const AT_CEILING: f64 = 1e-3;
 /// criterion at the start).
 const PINNED_STARTS: usize = 2;
 
+/// Levenberg–Marquardt steps taken on Broyden's updates of the Jacobian before it is taken by
+/// differences again (each difference costs a simulation per unknown).
+const BROYDEN_STEPS: usize = 4;
+
 /// Largest step in `ln θ` per iteration (a factor e).
 pub const MAX_LOG_STEP: f64 = 1.0;
 
@@ -493,11 +497,13 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut converged = false;
+    // Accepted steps since `j` was last taken by differences (in between, Broyden's updates).
+    let mut stale = 0;
     while iterations < MAX_ITERATIONS && !converged {
         iterations += 1;
         let jtj = j.transpose() * &j;
         let jtr = j.transpose() * &r;
-        let mut accepted = false;
+        let mut accepted = None;
         while lambda < 1e10 {
             let mut a = jtj.clone();
             for i in 0..np {
@@ -521,11 +527,13 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                     let small = (0..np).all(|i| step[i].abs() <= 1e-3 * (s2 / jtj[(i, i)].max(1e-300)).sqrt());
                     converged = gain <= 1e-2 * s2 || small;
                     logs = trial;
+                    let dr = &rt - &r;
                     r = rt;
                     cost = r.norm_squared();
                     lambda = (lambda / 10.0).max(1e-9);
-                    accepted = true;
+                    accepted = Some((step, dr));
                     if free.iter().zip(&logs).any(|(f, u)| f.ceiling().is_some_and(|m| f.from_unknown(*u) >= m * (1.0 - AT_CEILING))) {
+                        let j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
                         return Ok(Minimum { logs, r, j, cost, iterations, converged: false });
                     }
                     break;
@@ -533,10 +541,33 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                 _ => lambda *= 10.0,
             }
         }
-        if !accepted {
-            converged = true; // no descent left: a minimum to working precision
-            break;
+        match accepted {
+            // No descent along an updated Jacobian: take it afresh by differences and go on.
+            None if stale > 0 => {
+                j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+                (stale, lambda) = (0, 1e-3);
+            }
+            None => {
+                converged = true; // no descent left: a minimum to working precision
+                break;
+            }
+            // A minimum, and every [`BROYDEN_STEPS`]-th step: the Jacobian by differences there
+            // (the covariance is the minimum's own).
+            Some(_) if converged || stale + 1 >= BROYDEN_STEPS => {
+                j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+                stale = 0;
+            }
+            // Broyden's rank-one update, so that `j` maps the step to the residuals' change: one
+            // simulation an iteration instead of one per unknown.
+            Some((step, dr)) => {
+                let predicted = &dr + &j * &step;
+                j -= &predicted * step.transpose() / step.norm_squared();
+                stale += 1;
+            }
         }
+    }
+    if stale > 0 {
+        // Out of iterations on an updated Jacobian: the covariance needs the minimum's own.
         j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
     }
     Ok(Minimum { logs, r, j, cost, iterations, converged })
