@@ -150,34 +150,6 @@ pub enum Free {
 }
 
 impl Free {
-    /// Every parameter that can be estimated.
-    pub const ALL: [Free; 19] = [
-        Free::Cl,
-        Free::L,
-        Free::RL,
-        Free::C,
-        Free::Rc,
-        Free::LoadEsr,
-        Free::Esl,
-        Free::DeadTime,
-        Free::DiodeDrop,
-        Free::DiodeResistance,
-        Free::SwitchNodeCapacitance,
-        Free::LowSideRatio,
-        Free::SwitchResistance,
-        Free::InductorSaturation,
-        Free::Isat,
-        Free::CapDcBias,
-        Free::SampleDelay,
-        Free::VoutOffset,
-        Free::VoutGainError,
-    ];
-
-    /// The parameter of a variable-table name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|f| f.name() == name)
-    }
-
     /// Name as in the variable table.
     pub fn name(self) -> &'static str {
         match self {

@@ -73,7 +73,7 @@ const PINNED_STARTS: usize = 2;
 const BROYDEN_STEPS: usize = 4;
 
 /// Largest step in `ln θ` per iteration (a factor e).
-pub const MAX_LOG_STEP: f64 = 1.0;
+const MAX_LOG_STEP: f64 = 1.0;
 
 /// What the fit minimizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

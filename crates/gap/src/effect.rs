@@ -8,7 +8,6 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
-use estimator::simulated::MAX_LOG_STEP;
 use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
@@ -156,16 +155,16 @@ pub struct EffectFit {
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub within_tolerance: bool,
     /// One of the effect's parameters ended on a bound of its range, or a drift beyond
-    /// [`MAX_DRIFT`], or the fit ran Cl onto a bound of its range from a model that had it
-    /// inside (the effect took Cl's share of the data): the fit has not converged to something
-    /// physical, whatever it closes.
+    /// [`MAX_DRIFT`] (or, as a step on top of a model, it took Cl: [`EffectFit::as_step`]): the
+    /// fit has not converged to something physical, whatever it closes.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub at_bound: bool,
-    /// Cl ended on a bound of its range. Where the model the effect extends had lost Cl too (a
-    /// nominal far from the data, e.g. a diode buck ringing in DCM fitted as a synchronous one),
-    /// the effect is judged on what it closes, and its values and Cl are not converged.
+    /// Cl ended on a bound of its range: its values and Cl are not converged.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub cl_on_bound: bool,
+    /// Its fit ran Cl onto a bound of its range from a model that had Cl inside.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub takes_cl: bool,
     /// Significant, material, converged inside its range and (for a drift) outside the
     /// tolerance: an effect to report. For `sample_delay`, also when the inductor current
     /// shows it by itself ([`EffectFit::il_closed_percent`]).
@@ -285,6 +284,19 @@ impl EffectFit {
         self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound && matters;
     }
 
+    /// It judged as a step on top of a model (a forward step, a swap, the joint refit's): one
+    /// whose fit runs Cl onto a bound of its range from a model that had it inside took Cl's
+    /// share of the data and is no finding (a late reading pinned by il ran a diode buck's
+    /// 0.56 µF to 1.1 nF and made vout worse). A first step is judged on what it closes: the
+    /// nominal's own Cl may be no estimate (a synchronous model of a diode buck ringing in DCM
+    /// put it at 5.9 mF with a tight interval).
+    pub(crate) fn as_step(mut self) -> Self {
+        if self.takes_cl {
+            (self.finding, self.at_bound) = (false, true);
+        }
+        self
+    }
+
     /// A calibration of the vout reading ([`calibrates_reading`]), not of the circuit.
     pub(crate) fn calibrates_reading(&self) -> bool {
         calibrates_reading(self.name)
@@ -333,23 +345,31 @@ pub fn gap_above(rms: f64, floor: f64) -> bool {
 /// design table's ±20 %): beyond it the freed value stands in for something else.
 pub const MAX_DRIFT: f64 = 0.5;
 
-/// Relative distance from a fraction's ceiling within which a fit counts as ended on it.
+/// Relative distance from a range's bound within which a fit counts as ended on it.
 const AT_BOUND: f64 = 1e-3;
+
+/// The range of the variable `name` in the variable table.
+fn range(name: &str) -> Option<(f64, f64)> {
+    match buck_model::variables::by_name(name).map(|v| v.ty) {
+        Some(buck_model::variables::Type::Real { min, max, .. }) => Some((min, max)),
+        _ => None,
+    }
+}
 
 /// Whether `value` of the variable `name` lies on (or beyond) a bound of its range in the
 /// variable table (names without a range, or a lower bound of 0 that a log-scale fit cannot
-/// reach, never are). A log-scale fit whose next step would leave the range has its step
-/// refused (the simulator rejects the value) and stops up to one largest step short of the
-/// bound ([`MAX_LOG_STEP`] in `ln θ`): a load capacitance that crept to 1.1 nF against the
-/// range's 1 nF has run onto the bound as much as one that reached it. A fraction, fitted as
-/// a logit below its ceiling, is on it within [`AT_BOUND`].
+/// reach, never are).
 fn on_bound(name: &str, value: f64) -> bool {
-    let log_scale = Free::from_name(name).is_none_or(|f| f.ceiling().is_none() && f.signed_scale().is_none());
-    let slack = if log_scale { MAX_LOG_STEP.exp() } else { 1.0 / (1.0 - AT_BOUND) };
-    match buck_model::variables::by_name(name).map(|v| v.ty) {
-        Some(buck_model::variables::Type::Real { min, max, .. }) => value * slack >= max || (min > 0.0 && value <= min * slack),
-        _ => false,
-    }
+    range(name).is_some_and(|(min, max)| value >= max * (1.0 - AT_BOUND) || (min > 0.0 && value <= min * (1.0 + AT_BOUND)))
+}
+
+/// Whether a fit's Cl ran onto a bound of its range: the estimate there ([`on_bound`]), or its
+/// CI95 reaching it, the criterion flat all the way, so that the data cannot tell Cl from the
+/// bound. A fit creeping along such a slope stops wherever its gain falls below the noise: a
+/// load capacitance at 1.1 nF against the range's 1 nF with an interval from zero to infinity,
+/// a nominal whose Cl ran up to 2.8 mF.
+fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
+    on_bound("Cl", estimate) || range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
 }
 
 /// Smallest share of the gap above the floor, left by the model an effect extends, that the
@@ -633,7 +653,7 @@ impl ClCheck {
     /// infinity, so any distance passes Hausman's test: a 3.4 µF output-error Cl, five times the
     /// true 0.71 µF of a diode buck ringing in DCM, was "confirmed" by a high-pass 1.7 nF.)
     pub(crate) fn new(estimate: f64, model_ci95: [f64; 2], high_pass: f64, high_pass_ci95: [f64; 2], hausman: f64, limit: f64) -> Self {
-        let high_pass_on_bound = on_bound("Cl", high_pass);
+        let high_pass_on_bound = cl_on_bound(high_pass, high_pass_ci95);
         let consistent = !high_pass_on_bound && hausman.is_finite() && hausman <= limit;
         let high_pass_reported = consistent && log_width(high_pass_ci95) < log_width(model_ci95);
         Self { estimate, high_pass, high_pass_ci95, model_ci95, hausman, limit, high_pass_on_bound, consistent, high_pass_reported }
@@ -706,11 +726,9 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let closed_of_remaining = baseline.closed_of_material_gap(rms(&self::residual(against)), rms_after);
     let material = closed_of_remaining.is_some_and(|c| c >= MATERIAL_SHARE);
     let within_tolerance = t.drift.is_some_and(|d| d.abs() <= baseline.tolerance);
-    let cl_on = |c: &Candidate| c.fit.estimate("Cl").is_some_and(|e| on_bound("Cl", e.value));
+    let cl_on = |c: &Candidate| c.fit.estimate("Cl").is_some_and(|e| cl_on_bound(e.value, [e.ci95.0, e.ci95.1]));
     let cl_on_bound = cl_on(&t.cand);
-    let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
-        || (cl_on_bound && !cl_on(against))
-        || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT);
+    let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v)) || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT);
     let fit = EffectFit {
         name,
         params: t.params,
@@ -732,6 +750,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         within_tolerance,
         at_bound,
         cl_on_bound,
+        takes_cl: cl_on_bound && !cl_on(against),
         finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
         il_closed_percent: None,
@@ -754,13 +773,12 @@ mod tests {
         assert!(!on_bound("cap_dc_bias", 0.85));
         assert!(!on_bound("cap_dc_bias", 1e-9));
         assert!(!on_bound("no_such_variable", 1e9));
-        // A log-scale fit stops up to one largest step short of the bound the simulator refuses.
-        assert!(on_bound("Cl", 1.1e-9));
-        assert!(on_bound("Cl", 2.5e-9));
-        assert!(!on_bound("Cl", 3e-9));
-        assert!(!on_bound("Cl", 0.2e-6));
-        assert!(on_bound("dead_time", 5e-6));
-        assert!(!on_bound("dead_time", 100e-9));
+        assert!(!on_bound("diode_drop", 2.4));
+        // Cl crept toward a bound along a flat criterion: its interval reaches it.
+        assert!(cl_on_bound(1.1e-9, [0.0, f64::INFINITY]));
+        assert!(cl_on_bound(2.8e-3, [1e-4, f64::INFINITY]));
+        assert!(cl_on_bound(1.0e-9, [0.9e-9, 1.1e-9]));
+        assert!(!cl_on_bound(0.2e-6, [0.15e-6, 0.25e-6]));
     }
 
     /// Of two fits that agree, the more precise estimate is reported, in the hull of both

@@ -106,6 +106,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         within_tolerance: false,
         at_bound: false,
         cl_on_bound: false,
+        takes_cl: false,
         finding: material,
         ruled_out_above: None,
         il_closed_percent: None,
