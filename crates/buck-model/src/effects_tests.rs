@@ -379,6 +379,22 @@ fn cl_is_the_capacitance_at_its_reference_voltage() {
 fn cap_dc_bias_matches_fine_integration() {
     let p = Params { cap_dc_bias: 0.6, cap_rated_voltage: 10.0, cl: 20e-6, ..Params::default() };
     compare_with_reference(p, 1.0, "cap_dc_bias");
+    compare_with_reference(Params { cap_bias_law: crate::BiasLaw::Reciprocal, ..p }, 1.0, "cap_dc_bias, reciprocal law");
+}
+
+/// The reciprocal law is a charge-controlled ceramic's `Cl/(1 + c·v/V_r)²` (the independent
+/// harness's): the same loss at the rated voltage as the quadratic, more of it at low bias.
+#[test]
+fn the_reciprocal_bias_law_is_the_charge_controlled_ceramics() {
+    let (b, vr) = (0.6, 10.0);
+    let p = Params { cap_dc_bias: b, cap_rated_voltage: vr, cl: 20e-6, cap_bias_law: crate::BiasLaw::Reciprocal, ..Params::default() };
+    let c = 1.0 / (1.0f64 - b).sqrt() - 1.0;
+    for v in [0.0, 2.0, 5.0, 8.0, 10.0] {
+        assert_relative_eq!(p.cl_at(v), 20e-6 / (1.0 + c * v / vr).powi(2), max_relative = 1e-12);
+    }
+    assert_relative_eq!(p.cl_at(vr), 20e-6 * (1.0 - b), max_relative = 1e-12);
+    let quadratic = Params { cap_bias_law: crate::BiasLaw::Quadratic, ..p };
+    assert!(p.cl_at(5.0) < quadratic.cl_at(5.0), "convex below the quadratic's concave curve");
 }
 
 /// Independent reference for the state events: every instant is reached with the Van Loan

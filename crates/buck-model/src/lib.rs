@@ -23,4 +23,4 @@ pub mod variables;
 
 pub use converter::{Converter, Inputs, Outputs, State};
 pub use error::ModelError;
-pub use params::{Mode, Params};
+pub use params::{BiasLaw, Mode, Params};

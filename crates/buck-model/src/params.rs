@@ -63,9 +63,12 @@ pub struct Params {
     /// Saturation current of the inductor [A].
     pub isat: f64,
     /// `cap_dc_bias`: fraction of `Cl` lost at `cap_rated_voltage`:
-    /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)`, held at its rated-voltage value above it
-    /// (`Cl` at `cl_reference_voltage`, scaled accordingly).
+    /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)` (the [`BiasLaw`] in force), held at its
+    /// rated-voltage value above it (`Cl` at `cl_reference_voltage`, scaled accordingly).
     pub cap_dc_bias: f64,
+    /// The shape of the `cap_dc_bias` law. Not an FMU parameter (the FMU's is quadratic): a
+    /// fit tries the other shape too, since data at a few voltages cannot tell them apart.
+    pub cap_bias_law: BiasLaw,
     /// Rated voltage of `Cl` for `cap_dc_bias` [V].
     pub cap_rated_voltage: f64,
     /// Voltage at which `cl` is the load capacitance under `cap_dc_bias` [V]: 0 (the default)
@@ -98,6 +101,46 @@ pub struct Params {
     pub il_gain_error: f64,
 }
 
+/// The shape of a ceramic load capacitor's loss with its DC bias: the fraction of its capacitance
+/// kept at a voltage, given the fraction `b` lost at its rated voltage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum BiasLaw {
+    /// `1 − b·x²` at `x = v/V_rated`: the loss grows with the voltage (concave).
+    #[default]
+    Quadratic,
+    /// `1/(1 + c·x)²` with `c = 1/√(1 − b) − 1`, the same loss at the rated voltage: most of it
+    /// at low bias and flattening above (convex), as the charge-controlled `q(v)` of a class-II
+    /// ceramic's datasheet curve gives.
+    Reciprocal,
+}
+
+impl BiasLaw {
+    /// Fraction of the zero-bias capacitance kept at `x = v/V_rated` (in `[0, 1]`) when `b` is
+    /// lost at the rated voltage.
+    pub fn kept(self, b: f64, x: f64) -> f64 {
+        match self {
+            BiasLaw::Quadratic => 1.0 - b * x * x,
+            BiasLaw::Reciprocal => (1.0 + ((1.0 - b).sqrt().recip() - 1.0) * x).powi(-2),
+        }
+    }
+
+    /// The other shape.
+    pub fn other(self) -> Self {
+        match self {
+            BiasLaw::Quadratic => BiasLaw::Reciprocal,
+            BiasLaw::Reciprocal => BiasLaw::Quadratic,
+        }
+    }
+
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BiasLaw::Quadratic => "quadratic",
+            BiasLaw::Reciprocal => "reciprocal",
+        }
+    }
+}
+
 /// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
 /// diode).
 pub const BODY_DIODE_DROP: f64 = 0.7;
@@ -125,6 +168,7 @@ impl Default for Params {
             cap_dc_bias: 0.0,
             cap_rated_voltage: 16.0,
             cl_reference_voltage: 0.0,
+            cap_bias_law: BiasLaw::Quadratic,
             rload: 0.0,
             sample_delay: 0.0,
             vout_offset: 0.0,
@@ -215,7 +259,7 @@ impl Params {
         if self.cap_dc_bias == 0.0 {
             return self.cl;
         }
-        let kept = |v: f64| 1.0 - self.cap_dc_bias * (v / self.cap_rated_voltage).powi(2).min(1.0);
+        let kept = |v: f64| self.cap_bias_law.kept(self.cap_dc_bias, (v / self.cap_rated_voltage).min(1.0));
         self.cl * kept(v) / kept(self.cl_reference_voltage)
     }
 

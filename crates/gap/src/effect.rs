@@ -79,6 +79,10 @@ pub struct ClMove {
     /// CI95's log half-widths were widened by (see [`model_error_inflation`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub widened_by: Option<f64>,
+    /// For a final model with `cap_dc_bias`: Cl under the other bias law, and how the data
+    /// judges the two ([`crate::BiasLawSpread`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_law: Option<crate::BiasLawSpread>,
 }
 
 impl ClMove {
@@ -93,6 +97,7 @@ impl ClMove {
             check: None,
             check_skipped: None,
             widened_by: None,
+            bias_law: None,
         }
     }
 

@@ -8,6 +8,7 @@
 //! The data is never asked which effect it holds: metadata naming an effect is ignored.
 #![forbid(unsafe_code)]
 
+mod bias_law;
 mod candidates;
 mod consistency;
 mod effect;
@@ -24,6 +25,7 @@ use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::Structure;
 use serde::Serialize;
 
+pub use bias_law::BiasLawSpread;
 pub use effect::{ClCheck, ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
 pub use options::{DiagnoseOptions, Nominal};
 use options::nominal_options;
@@ -114,11 +116,14 @@ impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
     /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let (cl, ci95, check, skipped, widened) = match self.selected.last() {
-            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by),
-            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by),
+        let (cl, ci95, check, skipped, widened, law) = match self.selected.last() {
+            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by, e.cl.bias_law.as_ref()),
+            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by, None),
         };
         let mut test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
+        if let Some(law) = law {
+            test += &format!("; {law}");
+        }
         if let Some(k) = widened {
             test += &format!("; widened ×{k:.2} for the model error the residual still shows");
         }
@@ -220,11 +225,19 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let still_misses = |residual: &[f64], rms: f64| {
         baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
     };
+    // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
+    // other law's shape too.
+    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout);
     if let Some(last) = selected.last_mut() {
         if let Some(check) = &tested.0 {
             last.cl.take_reported(check, baseline.cl);
         }
         (last.cl.check, last.cl.check_skipped) = tested;
+        if let Some(spread) = spread {
+            (last.cl.estimate, last.cl.ci95) = spread.reported(last.cl.estimate, last.cl.ci95);
+            last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
+            last.cl.bias_law = Some(spread);
+        }
         if let Some(k) = still_misses(&last.residual, last.rms_after) {
             last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);

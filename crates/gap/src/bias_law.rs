@@ -1,0 +1,83 @@
+//! A ceramic's DC-bias law between the voltages the data visits.
+//!
+//! A PRBS on the duty holds the output near its two levels: the data shows Cl there and little
+//! of the law's shape between them. Reported at the data's mean output ([`crate::bias_reference`]),
+//! Cl is the law's value between the levels, which its curvature decides: the quadratic law's
+//! concave `1 − b·x²` put a ceramic following `Cl₀/√(1 + (v/V₀)²)` (convex) 2.3 % high at a
+//! 5 V point-of-load buck, with an interval of ±0.1 %. So a final model that carries
+//! `cap_dc_bias` is refitted with the other shape ([`buck_model::BiasLaw`]): where the data tells the two
+//! apart (a likelihood ratio beyond its 1 % point), the better one's Cl is reported; where it
+//! does not, Cl's interval spans both laws' (a type-B term for the law, like the interval
+//! test's for the model).
+use buck_model::Params;
+use estimator::data::DataSet;
+use estimator::validate::chi2_99;
+use serde::Serialize;
+
+use crate::effect::{EffectFit, residual, rms};
+use crate::select::Stack;
+
+/// Cl under the other bias law.
+#[derive(Debug, Clone, Serialize)]
+pub struct BiasLawSpread {
+    /// The law of the final model.
+    pub law: &'static str,
+    /// The other law, refitted.
+    pub other: &'static str,
+    /// Cl under the other law [F].
+    pub other_cl: f64,
+    /// Its CI95 [F].
+    pub other_ci95: [f64; 2],
+    /// `n·ln(σ²_other/σ²_final)` over the `n` held-out samples (the two laws have as many
+    /// parameters): positive where the final law predicts better.
+    pub likelihood_ratio: f64,
+    /// The data tells the laws apart (the ratio beyond its 1 % point either way): the better
+    /// law's Cl is reported alone.
+    pub told_apart: bool,
+}
+
+impl BiasLawSpread {
+    /// The final model `selected` (carrying `cap_dc_bias`) refitted with the other law, when it
+    /// can be; `None` otherwise.
+    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64) -> Option<Self> {
+        let last = selected.last()?;
+        if !selected.iter().any(|e| e.name == "cap_dc_bias") {
+            return None;
+        }
+        let fits: Vec<&EffectFit> = selected.iter().collect();
+        let stack = Stack::of(&fits, nominal, last.cl.estimate, true).ok()?;
+        let law = stack.params.cap_bias_law;
+        let alt = stack.fit(data, &[Params { cap_bias_law: law.other(), ..stack.params }], n_est, holdout).ok()?;
+        let cl = alt.fit.estimate("Cl")?;
+        let likelihood_ratio = (data.len() - n_est) as f64 * (rms(&residual(&alt)) / last.rms_after).ln() * 2.0;
+        Some(Self {
+            law: law.name(),
+            other: law.other().name(),
+            other_cl: cl.value,
+            other_ci95: [cl.ci95.0, cl.ci95.1],
+            likelihood_ratio,
+            told_apart: likelihood_ratio.abs() > chi2_99(1),
+        })
+    }
+
+    /// Cl and its CI95 to report, from the final law's `cl` and `ci95`.
+    pub fn reported(&self, cl: f64, [lo, hi]: [f64; 2]) -> (f64, [f64; 2]) {
+        match (self.told_apart, self.likelihood_ratio < 0.0) {
+            (true, false) => (cl, [lo, hi]),
+            (true, true) => (self.other_cl, self.other_ci95),
+            (false, _) => (cl, [lo.min(self.other_ci95[0]), hi.max(self.other_ci95[1])]),
+        }
+    }
+}
+
+impl std::fmt::Display for BiasLawSpread {
+    /// One sentence for people.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let other = format!("the {} bias law gives {:.4} µF", self.other, self.other_cl * 1e6);
+        match (self.told_apart, self.likelihood_ratio < 0.0) {
+            (true, false) => write!(f, "{other}, and the data prefers the {} (likelihood ratio {:.1})", self.law, self.likelihood_ratio),
+            (true, true) => write!(f, "{other}, which the data prefers (likelihood ratio {:.1}): its Cl is reported", -self.likelihood_ratio),
+            (false, _) => write!(f, "{other}; the data does not tell the laws apart, so the interval spans both"),
+        }
+    }
+}
