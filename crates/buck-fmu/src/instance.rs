@@ -73,8 +73,9 @@ pub struct Snapshot {
     converter: Converter,
 }
 
-/// Tag in front of serialized states, so that foreign or stale bytes are rejected.
-const STATE_MAGIC: &[u8; 8] = b"BUCKST03";
+/// Tag in front of serialized states, so that foreign or stale bytes are rejected (04: the
+/// parameters carry the bias law's shape).
+const STATE_MAGIC: &[u8; 8] = b"BUCKST04";
 
 /// Most switching periods one `fmi2DoStep` may cross (≈ 1 s of computing in switched mode).
 /// Without a bound, a step of 1e6 s or a huge `fs` restored from a state loops for hours: the
