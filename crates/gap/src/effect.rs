@@ -160,7 +160,7 @@ pub struct EffectFit {
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub within_tolerance: bool,
     /// One of the effect's parameters ended on a bound of its range, or a drift beyond
-    /// [`MAX_DRIFT`] (or, as a step on top of a model, it took Cl: [`EffectFit::as_step`]): the
+    /// [`MAX_DRIFT`] (or, as a step on top of a model, it took Cl: [`EffectFit::into_step`]): the
     /// fit has not converged to something physical, whatever it closes.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub at_bound: bool,
@@ -295,7 +295,7 @@ impl EffectFit {
     /// 0.56 µF to 1.1 nF and made vout worse). A first step is judged on what it closes: the
     /// nominal's own Cl may be no estimate (a synchronous model of a diode buck ringing in DCM
     /// put it at 5.9 mF with a tight interval).
-    pub(crate) fn as_step(mut self) -> Self {
+    pub(crate) fn into_step(mut self) -> Self {
         if self.takes_cl {
             (self.finding, self.at_bound) = (false, true);
         }

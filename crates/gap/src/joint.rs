@@ -115,7 +115,7 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
     if g.name == "sample_delay" {
         fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
     }
-    Some(fit.as_step())
+    Some(fit.into_step())
 }
 
 /// The joint refit after the selection `selected` (see the module's documentation), when its

@@ -540,7 +540,7 @@ pub(crate) fn for_cl(
         .filter_map(|x| {
             let t = x.trial(data, nominal, n_est, holdout).ok()?;
             let (fit, cand) = judge(x.name, t, &against, n_est, baseline);
-            let fit = fit.as_step();
+            let fit = fit.into_step();
             let moves_cl = (fit.cl.estimate / cl).ln().abs() > baseline.tolerance;
             (fit.significant && !fit.at_bound && !fit.within_tolerance && moves_cl).then_some((fit, cand))
         })
@@ -648,7 +648,7 @@ pub(crate) fn forward(
             if fit.name == "sample_delay" {
                 fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             }
-            Some((fit.as_step(), cand, x.stack.clone()))
+            Some((fit.into_step(), cand, x.stack.clone()))
         };
         let mut trials = Vec::new();
         if stack.switched {
@@ -777,7 +777,7 @@ fn swap(
             let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
             t.not_nested = true;
             let (fit, cand) = judge(x.name, t, against, n_est, baseline);
-            let fit = fit.as_step();
+            let fit = fit.into_step();
             fit.finding.then_some((k, (fit, cand, x.stack)))
         })
         .collect();
