@@ -547,8 +547,10 @@ fn levenberg_marquardt(
         let scale = (1.0 / step.rows(0, lay.nf).amax().max(1e-300)).min(1.0);
         let trial: Vec<f64> = p.iter().zip(step.iter()).map(|(x, s)| x + scale * s).collect();
         // The Jacobian comes with the trial: near the optimum nearly every trial is accepted.
-        let next = eval_at(&trial, true);
-        if next.cost < cur.cost {
+        // A trial outside a parameter's range is refused like one that does not descend (a
+        // nominal fit far from the data ran Cl to 1.7 pF, a value no converter simulates).
+        let inside = model.free.iter().zip(&trial).all(|(f, l)| f.admits(l.exp()));
+        if let Some(next) = inside.then(|| eval_at(&trial, true)).filter(|next| next.cost < cur.cost) {
             let rel = (cur.cost - next.cost) / cur.cost.max(1e-300);
             p = trial;
             cur = next;

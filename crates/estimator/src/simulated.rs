@@ -25,7 +25,7 @@
 //! periods. What is left of a start error that the linear part cannot take (the switching
 //! intervals adjusting to it) decays within the first [`BURN_IN`] samples, which are left out
 //! of the criterion.
-use buck_model::variables::{Type, VarId, by_name};
+use buck_model::variables::VarId;
 use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -253,11 +253,7 @@ fn without_offsets(p: Params) -> Params {
 /// ([`reading_calibration`]).
 fn residuals(start: &Params, free: &[Free], unknowns: &[f64], estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Option<DVector<f64>> {
     // A trial step outside a parameter's declared range (e.g. a Cl loss above 90 %) is refused.
-    let inside = free.iter().zip(unknowns).all(|(f, l)| match by_name(f.name()).map(|v| v.ty) {
-        Some(Type::Real { min, max, .. }) => (min..=max).contains(&f.from_unknown(*l)),
-        _ => true,
-    });
-    if !inside {
+    if !free.iter().zip(unknowns).all(|(f, l)| f.admits(f.from_unknown(*l))) {
         return None;
     }
     let from = Start::of(unknowns);

@@ -86,6 +86,12 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     if g.frees.contains(&Free::SampleDelay) {
         (s.params.il_offset, s.params.il_gain_error) = (nominal.il_offset, nominal.il_gain_error);
     }
+    // The effects that free no value change the structure: a duty applied late, an ideal diode.
+    match g.name {
+        "delay" => s.delay = 0,
+        "dcm" => s.params.dcm = nominal.dcm,
+        _ => {}
+    }
     // Without dead time or a diode nothing conducts while both switches are off: the switch
     // node's capacitance and a diode's slope resistance go with them.
     if !(s.params.dead_time > 0.0 || s.params.asynchronous() || s.params.dcm) {
@@ -139,7 +145,12 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     let mut before = Stack::of(&[], nominal, last.cl.estimate, switched_nominal).ok()?.free;
     for k in 0..fits.len() {
         let after = Stack::of(&fits[..=k], nominal, last.cl.estimate, switched_nominal).ok()?.free;
-        groups.push(Group { name: fits[k].name, frees: after.iter().filter(|f| !before.contains(f)).copied().collect(), selected: true });
+        let frees: Vec<Free> = after.iter().filter(|f| !before.contains(f)).copied().collect();
+        // The ripple is the switched model itself, which the refit needs: nothing to prune.
+        if fits[k].name == "switching_ripple" {
+            return None;
+        }
+        groups.push(Group { name: fits[k].name, frees, selected: true });
         before = after;
     }
     let has = |n: &str| fits.iter().any(|e| e.name == n);

@@ -83,6 +83,10 @@ pub struct Before {
     /// interval's log half-widths were widened by (see [`model_error_inflation`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_widened_by: Option<f64>,
+    /// When the verdict is `none` and the nominal misses by more than
+    /// [`effect::GROSS_MISS_FLOORS`] noise floors: that multiple (Cl not identified).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_misses_by_floors: Option<f64>,
 }
 
 /// Result of [`diagnose`].
@@ -116,9 +120,9 @@ impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
     /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let (cl, ci95, check, skipped, widened, law) = match self.selected.last() {
-            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by, e.cl.bias_law.as_ref()),
-            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by, None),
+        let (cl, ci95, check, skipped, widened, law, gross) = match self.selected.last() {
+            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by, e.cl.bias_law.as_ref(), e.cl.misses_by_floors),
+            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by, None, self.gap_before.cl_misses_by_floors),
         };
         let mut test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
         if let Some(law) = law {
@@ -126,6 +130,9 @@ impl Diagnosis {
         }
         if let Some(k) = widened {
             test += &format!("; widened ×{k:.2} for the model error the residual still shows");
+        }
+        if let Some(k) = gross {
+            test += &format!("; not identified: the final model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
         (cl, ci95, test)
     }
@@ -217,7 +224,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
-    let (mut cl, mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by) = (baseline.cl, base_cl, None, None, None);
+    let (mut cl, mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by, mut cl_misses_by_floors) = (baseline.cl, base_cl, None, None, None, None);
     // A final model that still misses materially above the floor leaves its error in the
     // residual, coloured: its Cl interval is widened by the square root of the residual's
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
@@ -229,7 +236,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // other law's shape too.
     let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout);
     if let Some(last) = selected.last_mut() {
-        if let Some(check) = &tested.0 {
+        if let Some(check) = tested.0.as_mut() {
+            check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
             last.cl.take_reported(check, baseline.cl);
         }
         (last.cl.check, last.cl.check_skipped) = tested;
@@ -242,14 +250,23 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
             last.cl.widened_by = Some(k);
         }
+        if let Some(k) = effect::gross_miss(last.rms_after, baseline.floor) {
+            last.cl.ci95 = [0.0, f64::INFINITY];
+            last.cl.misses_by_floors = Some(k);
+        }
     } else {
-        if let Some(check) = &tested.0 {
+        if let Some(check) = tested.0.as_mut() {
+            check.model_misses = baseline.misses_materially(baseline.rms).unwrap_or(false);
             (cl, cl_ci95) = check.reported();
         }
         (cl_check, cl_check_skipped) = tested;
         if let Some(k) = still_misses(&residual, baseline.rms) {
             cl_ci95 = effect::widen(cl, cl_ci95, k);
             cl_widened_by = Some(k);
+        }
+        if let Some(k) = effect::gross_miss(baseline.rms, baseline.floor) {
+            cl_ci95 = [0.0, f64::INFINITY];
+            cl_misses_by_floors = Some(k);
         }
     }
     // The verdict's entry in the table carries the same test when it is the final model.
@@ -278,6 +295,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             cl_check,
             cl_check_skipped,
             cl_widened_by,
+            cl_misses_by_floors,
         },
         location,
         effects,

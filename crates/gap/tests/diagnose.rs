@@ -602,6 +602,22 @@ fn a_ceramic_under_the_other_bias_law_gets_its_cl_from_that_law() {
     assert!(lo <= at_mean && at_mean <= hi, "Cl {cl:e} outside [{lo:e}, {hi:e}], true {at_mean:e} at {mean:.2} V ({test})");
 }
 
+/// An interference no effect explains (20 mV at 7.3 kHz on the reading, seven times the noise):
+/// whatever the selection names, a final model that misses `vout` by more than five floors is
+/// no model of this converter, and its Cl is not identified rather than an interval around
+/// whatever best hides the miss.
+#[test]
+fn a_model_that_misses_grossly_identifies_no_cl() {
+    let mut d = data(plant(Params { cl: CL, ..Params::default() }, Mode::Switched));
+    for (v, t) in d.vout.iter_mut().zip(&d.time) {
+        *v += 20e-3 * (2.0 * std::f64::consts::PI * 7.3e3 * t).sin();
+    }
+    let dx = diagnose_switched(&d);
+    let (cl, [lo, hi], test) = dx.final_cl();
+    assert!(!estimator::validate::identified([lo, hi]), "Cl {cl:e} in [{lo:e}, {hi:e}]: {test}");
+    assert!(test.contains("noise floor, no model"), "{test}");
+}
+
 /// A 0.8 nH ESL beside Cl = 1.4 µF, read 3 substeps of 100 (91 ns) late: once il pins the late
 /// reading, what the ESL leaves on vout is within the noise floor, yet the output-error and
 /// high-pass fits of Cl disagree (Hausman ≈ 40). The ESL is named for Cl (significant, moving
