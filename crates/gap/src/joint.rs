@@ -141,16 +141,17 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         return None;
     }
     // The selected effects' own parameters: what each adds to the model of those before it.
+    // The ripple (against an averaged nominal) is the switched model itself, which the refit
+    // needs: it stays first, out of the pruning.
     let mut groups = Vec::new();
     let mut before = Stack::of(&[], nominal, last.cl.estimate, switched_nominal).ok()?.free;
+    let ripple: Vec<EffectFit> = selected.iter().take_while(|e| e.name == "switching_ripple").cloned().collect();
     for k in 0..fits.len() {
         let after = Stack::of(&fits[..=k], nominal, last.cl.estimate, switched_nominal).ok()?.free;
         let frees: Vec<Free> = after.iter().filter(|f| !before.contains(f)).copied().collect();
-        // The ripple is the switched model itself, which the refit needs: nothing to prune.
-        if fits[k].name == "switching_ripple" {
-            return None;
+        if k >= ripple.len() {
+            groups.push(Group { name: fits[k].name, frees, selected: true });
         }
-        groups.push(Group { name: fits[k].name, frees, selected: true });
         before = after;
     }
     let has = |n: &str| fits.iter().any(|e| e.name == n);
@@ -254,7 +255,7 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
             refitted_without(data, nominal, &stack, order[j + 1..].iter().map(|(g, _)| g), n_est, holdout).map(|(_, fit)| fit)
         })
         .collect();
-    let mut out: Vec<EffectFit> = Vec::with_capacity(order.len());
+    let mut out: Vec<EffectFit> = ripple;
     for ((_, mut fit), step) in order.into_iter().zip(steps) {
         fit.step_from(&step?, baseline);
         // What it closes of the gap left by the steps before it (as a forward step reports; it

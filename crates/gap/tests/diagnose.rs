@@ -618,6 +618,20 @@ fn a_model_that_misses_grossly_identifies_no_cl() {
     assert!(test.contains("noise floor, no model"), "{test}");
 }
 
+/// The CLI's default, the averaged nominal, on a switched converter with dead time and 20 mΩ
+/// switches: the ripple is taken first (how the converter runs), so the effects of the
+/// switching are tried with the switched model (an averaged series resistance had been taken
+/// first, standing in for the dead time, which the averaged model cannot hold).
+#[test]
+fn the_averaged_nominal_takes_the_ripple_first_and_then_the_switching() {
+    let c = plant(Params { cl: CL, dead_time: 40e-9, switch_resistance: 0.02, ..Params::default() }, Mode::Switched);
+    let dx = diagnose(&data_at(c, 2.0), &Params::default(), &DiagnoseOptions::default()).unwrap();
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names.first(), Some(&"switching_ripple"), "{names:?}: {}", dx.selection_ended);
+    assert!(names.contains(&"dead_time") && names.contains(&"switch_resistance"), "{names:?}: {}", dx.selection_ended);
+    assert_final_cl_holds(&dx, CL);
+}
+
 /// A 0.8 nH ESL beside Cl = 1.4 µF, read 3 substeps of 100 (91 ns) late: once il pins the late
 /// reading, what the ESL leaves on vout is within the noise floor, yet the output-error and
 /// high-pass fits of Cl disagree (Hausman ≈ 40). The ESL is named for Cl (significant, moving
