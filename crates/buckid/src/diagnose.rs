@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Context, Result};
+use buck_model::Params;
 use estimator::data::DataSet;
 use gap::{DiagnoseOptions, Nominal, diagnose};
 use serde::Serialize;
@@ -35,8 +36,9 @@ fn name(n: Nominal) -> &'static str {
     }
 }
 
-/// The nominal model: `--nominal`, else the FMU's `mode`, else averaged; notes on stderr.
-fn choose_nominal(asked: Option<NominalChoice>, fmu: Option<&NominalFmu>) -> Nominal {
+/// The nominal model: `--nominal`, else the FMU's `mode`, else the one the data calls for
+/// ([`gap::nominal_for`]); notes on stderr.
+fn choose_nominal(asked: Option<NominalChoice>, fmu: Option<&NominalFmu>, data: &DataSet, nominal: &Params, holdout: f64) -> Nominal {
     let from_fmu = fmu.and_then(NominalFmu::nominal);
     let asked = asked.map(|c| match c {
         NominalChoice::Averaged => Nominal::Averaged,
@@ -56,7 +58,17 @@ fn choose_nominal(asked: Option<NominalChoice>, fmu: Option<&NominalFmu>) -> Nom
             eprintln!("the FMU's `mode` start value {v} is neither 1 (averaged) nor 2 (switched): assuming the averaged nominal model");
             Nominal::Averaged
         }
-        (None, None) => Nominal::Averaged,
+        (None, None) => {
+            let e = gap::nominal_for(data, nominal, holdout);
+            let why = if e.nominal == Nominal::Switched { "samples of a switching converter" } else { "the averaged model fits and the data holds no switching ripple" };
+            eprintln!(
+                "nominal model {} ({why}: the averaged model's held-out residual {:.2} noise floors, the ripple's share in it {:.2}; --nominal sets the model)",
+                name(e.nominal),
+                e.averaged_floors,
+                e.ripple_share
+            );
+            e.nominal
+        }
     }
 }
 
@@ -80,7 +92,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     for a in &assumed {
         eprintln!("assuming {a}");
     }
-    let model = choose_nominal(args.nominal, fmu.as_ref());
+    let model = choose_nominal(args.nominal, fmu.as_ref(), &data, &nominal, args.holdout);
     eprintln!("fitting the nominal {} model and the candidate effects", name(model));
     if !(0.0..1.0).contains(&args.tolerance) {
         anyhow::bail!("--tolerance {} must be a relative tolerance in [0, 1)", args.tolerance);

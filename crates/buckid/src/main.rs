@@ -53,7 +53,8 @@ struct DiagnoseArgs {
     /// inputs to report its own held-out error.
     #[arg(long)]
     fmu: Option<PathBuf>,
-    /// The nominal simulation model (default: the FMU's `mode`, else averaged).
+    /// The nominal simulation model (default: the FMU's `mode`, else the one the data calls
+    /// for: switched where it shows its switching, averaged where it does not).
     #[arg(long, value_enum)]
     nominal: Option<NominalChoice>,
     /// Map an input/output role (duty, io, vin, vout) to a variable of the --fmu.

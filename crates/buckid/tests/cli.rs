@@ -281,8 +281,13 @@ fn identify_and_diagnose_the_ngspice_fixture() {
     assert_eq!(j["samples"].as_u64().unwrap() + j["validation_samples"].as_u64().unwrap(), 500);
     assert!(j["fit_percent"]["simulation"].as_f64().unwrap() > 99.0 && j["seconds"].as_f64().unwrap() > 0.0);
 
+    // Told no nominal model, the diagnosis takes the switched one for samples of a switching
+    // converter, and says why.
     let out = dir.path().join("dx.json");
     let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success() && stderr(&o).contains("nominal model switched (samples of a switching converter"), "{}", stderr(&o));
+    assert_eq!(json(&out)["nominal"], "switched");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "averaged", "--json", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let j = json(&out);
     assert!(j["gap_before"]["nrmse"].as_f64().unwrap() > 0.01, "the averaged model misses the ripple");

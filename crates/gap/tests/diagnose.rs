@@ -632,6 +632,22 @@ fn the_averaged_nominal_takes_the_ripple_first_and_then_the_switching() {
     assert_final_cl_holds(&dx, CL);
 }
 
+/// The nominal model the data calls for, when the user names none: averaged data (the plant
+/// in averaged mode) the averaged one; switched data the switched one, clean or with a dead
+/// time whose volts hide the ripple's millivolts.
+#[test]
+fn the_data_calls_for_its_nominal_model() {
+    let p = Params { cl: CL, ..Params::default() };
+    let holdout = DiagnoseOptions::default().holdout;
+    let choose = |d: &DataSet| gap::nominal_for(d, &Params::default(), holdout);
+    let averaged = choose(&data(plant(p, Mode::Averaged)));
+    assert_eq!(averaged.nominal, gap::Nominal::Averaged, "{averaged:?}");
+    let switched = choose(&data(plant(p, Mode::Switched)));
+    assert_eq!(switched.nominal, gap::Nominal::Switched, "{switched:?}");
+    let dead = choose(&data_at(plant(Params { dead_time: 50e-9, ..p }, Mode::Switched), 2.0));
+    assert_eq!(dead.nominal, gap::Nominal::Switched, "{dead:?}");
+}
+
 /// A 0.8 nH ESL beside Cl = 1.4 µF, read 3 substeps of 100 (91 ns) late: once il pins the late
 /// reading, what the ESL leaves on vout is within the noise floor, yet the output-error and
 /// high-pass fits of Cl disagree (Hausman ≈ 40). The ESL is named for Cl (significant, moving

@@ -2,7 +2,8 @@
 """Score ``buckid diagnose`` on the third generator's converters.
 
 Generates (or reuses, when both files exist) K cases per family x kind with ``third.py``,
-runs ``buckid diagnose --data F --nominal switched --json F.diag.json`` on each (one at a
+runs ``buckid diagnose --data F --nominal switched --json F.diag.json`` (``--nominal averaged``
+or none, the CLI's choice, with ``--nominal averaged|default``) on each (one at a
 time, timed), and prints a markdown table per family and overall, then one line per case.
 
 Scores (JSON fields checked against crates/buckid/src/diagnose.rs and crates/gap/src/lib.rs):
@@ -68,9 +69,10 @@ def generate_one(args):
     return csv, time.perf_counter() - clock, None
 
 
-def diagnose_one(buckid, csv, diag, log):
+def diagnose_one(buckid, csv, diag, log, nominal="switched"):
     clock = time.perf_counter()
-    proc = subprocess.run([buckid, "diagnose", "--data", csv, "--nominal", "switched", "--json", diag],
+    told = [] if nominal == "default" else ["--nominal", nominal]
+    proc = subprocess.run([buckid, "diagnose", "--data", csv, *told, "--json", diag],
                           capture_output=True, text=True)
     seconds = time.perf_counter() - clock
     with open(log, "w") as fh:
@@ -172,6 +174,8 @@ def main(argv=None):
     p.add_argument("--jobs", type=int, default=2, help="parallel generations (diagnoses run one at a time)")
     p.add_argument("--periods", type=int, default=3001)
     p.add_argument("--buckid", default=os.path.join(ROOT, "target", "release", "buckid"))
+    p.add_argument("--nominal", choices=("switched", "averaged", "default"), default="switched",
+                   help="the diagnosis's nominal model (default: none named, the CLI chooses)")
     a = p.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     families = [f for f in a.families.split(",") if f]
@@ -199,7 +203,7 @@ def main(argv=None):
         with open(truth_path) as fh:
             truth = json.load(fh)
         row["truth"] = truth
-        dx, secs, err = diagnose_one(a.buckid, csv, diag, log)
+        dx, secs, err = diagnose_one(a.buckid, csv, diag, log, a.nominal)
         row.update(seconds=secs, error=err, dx=dx)
         print(f"diagnosed {os.path.basename(csv)} in {secs:.2f} s" + (f": ERROR {err}" if err else ""),
               file=sys.stderr, flush=True)
