@@ -189,13 +189,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // A drift within tolerance that explains best leaves nothing to name.
     // A late reading the inductor current shows by itself comes first: it is how the data was
     // taken, and every circuit effect is then tested on top of it. Against the averaged nominal,
-    // the ripple of switched data, when it is a finding, likewise: it is how the converter runs,
-    // and only the switched model holds the effects of the switching (dead time, a diode, the
-    // node's charge). Taken after an averaged stand-in (a series resistance for a dead time),
-    // it left them out: a harness capture with five effects got a resistance and a drift.
-    // The ripple is the model's form, not an effect competing for the gap: significant, it is
-    // taken whatever share of the gap it closes by itself (beside a dead time's volts, the
-    // ripple's millivolts close little, yet only the switched model can hold the dead time).
+    // the ripple of switched data likewise: it is how the converter runs, and only the switched
+    // model holds the effects of the switching (dead time, a diode, the node's charge); taken
+    // after an averaged stand-in (a series resistance for a dead time), it left them out (a
+    // harness capture with five effects got a resistance and a drift). It is the model's form,
+    // not an effect competing for the gap: significant, it is taken whatever share of the gap it
+    // closes by itself (beside a dead time's volts, the ripple's millivolts close little).
     let late_in_il = effects.iter().find(|e| e.late_in_il()).cloned();
     let ripple = effects.iter().find(|e| e.name == "switching_ripple" && e.significant && !e.at_bound).map(|e| EffectFit { finding: true, ..e.clone() });
     let first = late_in_il.or(ripple).or_else(|| select::best_material(effects.iter(), |e| e).cloned());
