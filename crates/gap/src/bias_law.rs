@@ -6,11 +6,12 @@
 //! concave `1 − b·x²` put a ceramic following `Cl₀/√(1 + (v/V₀)²)` (convex) 2.3 % high at a
 //! 5 V point-of-load buck, with an interval of ±0.1 %. So a final model that carries
 //! `cap_dc_bias` is refitted with the other shape ([`buck_model::BiasLaw`]): where the data tells the two
-//! apart (a likelihood ratio beyond its 1 % point), the better one's Cl is reported; where it
+//! apart (a likelihood ratio beyond its 1 % point), the better one's Cl and parameters are reported; where it
 //! does not, Cl's interval spans both laws' (a type-B term for the law, like the interval
 //! test's for the model).
 use buck_model::Params;
 use estimator::data::DataSet;
+use estimator::identify::Candidate;
 use estimator::validate::chi2_99;
 use serde::Serialize;
 
@@ -38,8 +39,8 @@ pub struct BiasLawSpread {
 
 impl BiasLawSpread {
     /// The final model `selected` (carrying `cap_dc_bias`) refitted with the other law, when it
-    /// can be; `None` otherwise.
-    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64) -> Option<Self> {
+    /// can be, and that refit; `None` otherwise.
+    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64) -> Option<(Self, Candidate)> {
         let last = selected.last()?;
         if !selected.iter().any(|e| e.name == "cap_dc_bias") {
             return None;
@@ -50,14 +51,20 @@ impl BiasLawSpread {
         let alt = stack.fit(data, &[Params { cap_bias_law: law.other(), ..stack.params }], n_est, holdout).ok()?;
         let cl = alt.fit.estimate("Cl")?;
         let likelihood_ratio = (data.len() - n_est) as f64 * (rms(&residual(&alt)) / last.rms_after).ln() * 2.0;
-        Some(Self {
+        let spread = Self {
             law: law.name(),
             other: law.other().name(),
             other_cl: cl.value,
             other_ci95: [cl.ci95.0, cl.ci95.1],
             likelihood_ratio,
             told_apart: likelihood_ratio.abs() > chi2_99(1),
-        })
+        };
+        Some((spread, alt))
+    }
+
+    /// The data prefers the other law: its fit is the one to report, Cl and the parameters.
+    pub fn prefers_other(&self) -> bool {
+        self.told_apart && self.likelihood_ratio < 0.0
     }
 
     /// Cl and its CI95 to report, from the final law's `cl` and `ci95`.
@@ -76,7 +83,7 @@ impl std::fmt::Display for BiasLawSpread {
         let other = format!("the {} bias law gives {:.4} µF", self.other, self.other_cl * 1e6);
         match (self.told_apart, self.likelihood_ratio < 0.0) {
             (true, false) => write!(f, "{other}, and the data prefers the {} (likelihood ratio {:.1})", self.law, self.likelihood_ratio),
-            (true, true) => write!(f, "{other}, which the data prefers (likelihood ratio {:.1}): its Cl is reported", -self.likelihood_ratio),
+            (true, true) => write!(f, "{other}, which the data prefers (likelihood ratio {:.1}): its Cl and parameters are reported", -self.likelihood_ratio),
             (false, _) => write!(f, "{other}; the data does not tell the laws apart, so the interval spans both"),
         }
     }

@@ -241,7 +241,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
-    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout);
+    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout).map(|(spread, alt)| {
+        if spread.prefers_other() {
+            select::at_final_values(&mut selected, &alt, nominal);
+        }
+        spread
+    });
     if let Some(last) = selected.last_mut() {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);

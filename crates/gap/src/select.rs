@@ -786,7 +786,7 @@ fn swap(
 
 /// Sets every selected effect's parameters (and CI95) to their values in the final model, where
 /// they are fitted together (a diode drop found first absorbs a series resistance found later).
-fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nominal: &Params) {
+pub(crate) fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nominal: &Params) {
     for e in selected.iter_mut() {
         // A late reading's nuisances (the il reading's calibration) as the final fit has them.
         if e.params.contains_key("il_offset") {

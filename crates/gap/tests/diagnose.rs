@@ -600,6 +600,15 @@ fn a_ceramic_under_the_other_bias_law_gets_its_cl_from_that_law() {
     let (cl, [lo, hi], test) = dx.final_cl();
     let at_mean = p.cl_at(mean);
     assert!(lo <= at_mean && at_mean <= hi, "Cl {cl:e} outside [{lo:e}, {hi:e}], true {at_mean:e} at {mean:.2} V ({test})");
+    // The law's own parameter, the reported one: the same part seen from the data's top
+    // voltage, where `(1 + k·v/Vr)⁻²` keeps `1 − b`.
+    let top = d.vout.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let k = (1.0 - p.cap_dc_bias).sqrt().recip() - 1.0;
+    let loss_at_top = 1.0 - (1.0 + k * top / p.cap_rated_voltage).powi(-2);
+    let bias = dx.selected.iter().find(|e| e.name == "cap_dc_bias").expect("selected");
+    let b = bias.params["cap_dc_bias"];
+    let [b_lo, b_hi] = bias.ci95["cap_dc_bias"];
+    assert!((b / loss_at_top - 1.0).abs() < 0.05 && b_lo <= loss_at_top && loss_at_top <= b_hi, "cap_dc_bias {b} [{b_lo}, {b_hi}] vs {loss_at_top}");
 }
 
 /// An interference no effect explains (20 mV at 7.3 kHz on the reading, seven times the noise):
