@@ -32,11 +32,7 @@ fn write_model_description() -> Result<PathBuf> {
 fn package_fmu() -> Result<PathBuf> {
     let root = root();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(&root)
-        .args(["build", "--release", "--package", "buck-fmu", "--lib"])
-        .status()
-        .context("running cargo build")?;
+    let status = Command::new(cargo).current_dir(&root).args(["build", "--release", "--package", "buck-fmu", "--lib"]).status().context("running cargo build")?;
     if !status.success() {
         bail!("cargo build of buck-fmu failed");
     }
@@ -48,9 +44,7 @@ fn package_fmu() -> Result<PathBuf> {
     let fmu = root.join("fmu").join(format!("{MODEL_IDENTIFIER}.fmu"));
     std::fs::create_dir_all(fmu.parent().context("no parent")?)?;
     let mut zip = zip::ZipWriter::new(std::fs::File::create(&fmu)?);
-    let options = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated)
-        .unix_permissions(0o644);
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated).unix_permissions(0o644);
     zip.start_file("modelDescription.xml", options)?;
     zip.write_all(xml.as_bytes())?;
     zip.start_file(format!("binaries/linux64/{MODEL_IDENTIFIER}.so"), options.unix_permissions(0o755))?;

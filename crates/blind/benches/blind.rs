@@ -14,8 +14,8 @@
 //! `scripts/setup`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark binary: failing loudly is fine
 use blind::{
-    Case, HARNESS_CASES, HARNESS_SEVERAL, Harness, HarnessCase, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw,
-    draw_harness, harness_case, plant_case, plant_effects, rng, score, spice_case,
+    Case, HARNESS_CASES, HARNESS_SEVERAL, Harness, HarnessCase, HarnessRanges, Outcome, SAMPLES, SPICE_EFFECTS, Spice, bundled_fmu, confusion_matrix, diagnose_case, draw, draw_harness, harness_case,
+    plant_case, plant_effects, rng, score, spice_case,
 };
 
 fn arg(name: &str) -> Option<String> {
@@ -159,14 +159,7 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     for o in part.iter().filter(|o| !o.hit()) {
         let limit = if o.detectable || o.truth.effects().is_empty() { "" } else { ", no gap above the noise" };
         let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
-        println!(
-            "- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})",
-            o.truth.label(),
-            o.said(),
-            o.true_cl * 1e6,
-            o.truth.io,
-            settings(o)
-        );
+        println!("- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})", o.truth.label(), o.said(), o.true_cl * 1e6, o.truth.io, settings(o));
     }
 }
 
@@ -228,8 +221,7 @@ fn main() {
         // Indices of their own (offset) so that adding plant or ngspice datasets does not
         // change the harness's draws; the several-effect sets apart from the one- and
         // two-effect sets' (which they leave as they were), and a source of their own.
-        let kinds: [(&[HarnessCase], usize, u64, &'static str); 2] =
-            [(&HARNESS_CASES, harness_per_effect, 1_000_000, "harness"), (&HARNESS_SEVERAL, harness_several, 2_000_000, "harness-several")];
+        let kinds: [(&[HarnessCase], usize, u64, &'static str); 2] = [(&HARNESS_CASES, harness_per_effect, 1_000_000, "harness"), (&HARNESS_SEVERAL, harness_several, 2_000_000, "harness-several")];
         for (cases, rounds, offset, source) in kinds {
             for round in 0..rounds {
                 for (i, (effect, also)) in cases.iter().enumerate() {

@@ -11,12 +11,8 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (seed, index): (u64, u64) = (args[1].parse().unwrap(), args[2].parse().unwrap());
     let case = if args.iter().any(|a| a == "--harness") {
-        let (effect, also) = HARNESS_CASES
-            .iter()
-            .chain(&HARNESS_SEVERAL)
-            .find(|(e, a)| std::iter::once(*e).chain(a.iter().copied()).collect::<Vec<_>>().join("+") == args[3])
-            .copied()
-            .expect("a HARNESS_CASES entry");
+        let (effect, also) =
+            HARNESS_CASES.iter().chain(&HARNESS_SEVERAL).find(|(e, a)| std::iter::once(*e).chain(a.iter().copied()).collect::<Vec<_>>().join("+") == args[3]).copied().expect("a HARNESS_CASES entry");
         let truth = draw_harness(effect, also, &blind::HarnessRanges::default(), &mut rng(seed, index));
         println!("{truth:?}");
         harness_case(truth, seed ^ index, &Harness::find(&fmu_fixture::root()).expect("ngspice and .venv (scripts/setup)"), SAMPLES).unwrap()
@@ -46,7 +42,19 @@ fn main() {
     for e in &dx.effects {
         println!(
             "{:20} nrmse {:.5} rms {:.3} mV shrink {:6.1} aic {:10.1} dAIC {:8.1} LR {:?} sig {} Cl {:.4} [{:.4}, {:.4}] {:?} {:?}",
-            e.name, e.nrmse_after, e.rms_after * 1e3, e.shrink_percent, e.aic, e.delta_aic, e.lr_statistic, e.significant, e.cl.estimate * 1e6, e.cl.ci95[0] * 1e6, e.cl.ci95[1] * 1e6, (e.params.clone(), e.ruled_out_above), e.ci95
+            e.name,
+            e.nrmse_after,
+            e.rms_after * 1e3,
+            e.shrink_percent,
+            e.aic,
+            e.delta_aic,
+            e.lr_statistic,
+            e.significant,
+            e.cl.estimate * 1e6,
+            e.cl.ci95[0] * 1e6,
+            e.cl.ci95[1] * 1e6,
+            (e.params.clone(), e.ruled_out_above),
+            e.ci95
         );
     }
     for n in &dx.not_tested {

@@ -104,22 +104,12 @@ pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // A diode's slope resistance, the switch node's capacitance and unequal switches refine a
     // diode, a dead time or the switches' resistance; alone they change nothing. The plant's
     // readings are exact: a sensor's calibration comes from the harness only.
-    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches" | "sensor_offset" | "sensor_gain")))
+    std::iter::once("none")
+        .chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches" | "sensor_offset" | "sensor_gain")))
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).
-pub const SPICE_EFFECTS: [&str; 10] = [
-    "none",
-    "switching_ripple",
-    "switch_resistance",
-    "param_drift",
-    "diode_drop",
-    "dead_time",
-    "load_esr",
-    "esl",
-    "inductor_saturation",
-    "cap_dc_bias",
-];
+pub const SPICE_EFFECTS: [&str; 10] = ["none", "switching_ripple", "switch_resistance", "param_drift", "diode_drop", "dead_time", "load_esr", "esl", "inductor_saturation", "cap_dc_bias"];
 
 fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     rng.random_range(lo..hi)
@@ -168,14 +158,7 @@ pub fn draw(effect: &'static str, rng: &mut ChaCha8Rng) -> Truth {
 /// The experiment of every dataset: PRBS duty 0.4/0.6, 3001 samples, seeded noise.
 fn experiment(truth: &Truth, seed: u64) -> Experiment {
     let adc = truth.effect == "adc_quantization";
-    Experiment {
-        samples: SAMPLES,
-        io: truth.io,
-        noise_vout: if adc { 0.0 } else { truth.noise },
-        noise_seed: seed,
-        prbs: Prbs { seed, ..Prbs::default() },
-        ..Experiment::default()
-    }
+    Experiment { samples: SAMPLES, io: truth.io, noise_vout: if adc { 0.0 } else { truth.noise }, noise_seed: seed, prbs: Prbs { seed, ..Prbs::default() }, ..Experiment::default() }
 }
 
 /// The user's model for a dataset withholding `effect`.
@@ -500,11 +483,7 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
         for (name, value) in settings {
             args.extend([format!("--{}", name.replace('_', "-")), format!("{value:e}")]);
         }
-        let output = Command::new(&harness.python)
-            .arg(&harness.script)
-            .args(&args)
-            .output()
-            .map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
+        let output = Command::new(&harness.python).arg(&harness.script).args(&args).output().map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
         if !output.status.success() {
             let stderr = String::from_utf8_lossy(&output.stderr);
             return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));

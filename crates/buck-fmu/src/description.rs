@@ -1,30 +1,21 @@
 //! The `modelDescription.xml` of the FMU, derived from the variable table of `buck-model`.
-use buck_model::variables::{self, Causality, Type, Variability, VARIABLES};
+use buck_model::variables::{self, Causality, Type, VARIABLES, Variability};
 use fmi2_schema as md;
 
 /// `modelIdentifier` and the shared library's file stem.
 pub const MODEL_IDENTIFIER: &str = "BuckConverter";
 
 /// Log categories the FMU accepts in `fmi2SetDebugLogging`.
-pub const LOG_CATEGORIES: &[(&str, &str)] = &[
-    ("logStatusError", "Errors: rejected values and calls (always logged)"),
-    ("logStatusWarning", "Warnings"),
-    ("logCalls", "Every FMI call (only with debug logging on)"),
-];
+pub const LOG_CATEGORIES: &[(&str, &str)] =
+    &[("logStatusError", "Errors: rejected values and calls (always logged)"), ("logStatusWarning", "Warnings"), ("logCalls", "Every FMI call (only with debug logging on)")];
 
 /// The complete model description.
 pub fn model_description() -> md::ModelDescription {
     let variables: Vec<md::ScalarVariable> = VARIABLES.iter().map(scalar_variable).collect();
-    let outputs: Vec<md::Unknown> = VARIABLES
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output)
-        .map(|(i, _)| md::Unknown { index: i as u32 + 1, dependencies: None })
-        .collect();
+    let outputs: Vec<md::Unknown> = VARIABLES.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).map(|(i, _)| md::Unknown { index: i as u32 + 1, dependencies: None }).collect();
     // Outputs are functions of the state only (no direct feed-through); during
     // initialization they depend on the start values, so InitialUnknowns keep the default.
-    let no_feedthrough: Vec<md::Unknown> =
-        outputs.iter().map(|u| md::Unknown { dependencies: Some(String::new()), ..u.clone() }).collect();
+    let no_feedthrough: Vec<md::Unknown> = outputs.iter().map(|u| md::Unknown { dependencies: Some(String::new()), ..u.clone() }).collect();
     md::ModelDescription {
         fmi_version: "2.0".into(),
         model_name: MODEL_IDENTIFIER.into(),
@@ -51,49 +42,21 @@ pub fn model_description() -> md::ModelDescription {
             provides_directional_derivative: Some(false),
         }),
         unit_definitions: Some(md::UnitDefinitions {
-            units: variables::UNITS
-                .iter()
-                .map(|(name, [kg, m, s, a])| md::Unit {
-                    name: (*name).into(),
-                    base_unit: Some(md::BaseUnit { kg: *kg, m: *m, s: *s, a: *a }),
-                })
-                .collect(),
+            units: variables::UNITS.iter().map(|(name, [kg, m, s, a])| md::Unit { name: (*name).into(), base_unit: Some(md::BaseUnit { kg: *kg, m: *m, s: *s, a: *a }) }).collect(),
         }),
         type_definitions: None,
-        log_categories: Some(md::LogCategories {
-            categories: LOG_CATEGORIES
-                .iter()
-                .map(|(name, desc)| md::Category { name: (*name).into(), description: Some((*desc).into()) })
-                .collect(),
-        }),
-        default_experiment: Some(md::DefaultExperiment {
-            start_time: Some(0.0),
-            stop_time: Some(0.01),
-            tolerance: None,
-            step_size: Some(1.0 / 330e3),
-        }),
+        log_categories: Some(md::LogCategories { categories: LOG_CATEGORIES.iter().map(|(name, desc)| md::Category { name: (*name).into(), description: Some((*desc).into()) }).collect() }),
+        default_experiment: Some(md::DefaultExperiment { start_time: Some(0.0), stop_time: Some(0.01), tolerance: None, step_size: Some(1.0 / 330e3) }),
         model_variables: md::ModelVariables { variables },
-        model_structure: md::ModelStructure {
-            outputs: Some(md::Unknowns { unknowns: no_feedthrough }),
-            derivatives: None,
-            initial_unknowns: Some(md::Unknowns { unknowns: outputs }),
-        },
+        model_structure: md::ModelStructure { outputs: Some(md::Unknowns { unknowns: no_feedthrough }), derivatives: None, initial_unknowns: Some(md::Unknowns { unknowns: outputs }) },
     }
 }
 
 fn scalar_variable(v: &variables::Variable) -> md::ScalarVariable {
     let finite = |x: f64| x.is_finite().then_some(x);
     let ty = match v.ty {
-        Type::Real { unit, min, max, start } => md::VariableType::Real(md::RealType {
-            declared_type: None,
-            unit: Some(unit.into()),
-            min: finite(min),
-            max: finite(max),
-            start,
-        }),
-        Type::Integer { min, max, start } => {
-            md::VariableType::Integer(md::IntegerType { min: Some(min), max: Some(max), start: Some(start) })
-        }
+        Type::Real { unit, min, max, start } => md::VariableType::Real(md::RealType { declared_type: None, unit: Some(unit.into()), min: finite(min), max: finite(max), start }),
+        Type::Integer { min, max, start } => md::VariableType::Integer(md::IntegerType { min: Some(min), max: Some(max), start: Some(start) }),
         Type::Boolean { start } => md::VariableType::Boolean(md::BooleanType { start: Some(start) }),
     };
     md::ScalarVariable {
@@ -126,10 +89,7 @@ mod tests {
     /// Fails when the variable table changed but `cargo xtask model-description` was not run.
     #[test]
     fn committed_model_description_is_up_to_date() {
-        assert!(
-            committed() == model_description().to_xml().unwrap(),
-            "modelDescription/modelDescription.xml is stale: run `cargo xtask model-description`"
-        );
+        assert!(committed() == model_description().to_xml().unwrap(), "modelDescription/modelDescription.xml is stale: run `cargo xtask model-description`");
     }
 
     /// Reading the committed XML back gives the same description (names, references, types,

@@ -93,12 +93,7 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
 
 /// `fmi2SetDebugLogging`.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2SetDebugLogging(
-    c: fmi2Component,
-    logging_on: fmi2Boolean,
-    n_categories: usize,
-    categories: *const fmi2String,
-) -> fmi2Status {
+pub unsafe extern "C" fn fmi2SetDebugLogging(c: fmi2Component, logging_on: fmi2Boolean, n_categories: usize, categories: *const fmi2String) -> fmi2Status {
     call(c, "fmi2SetDebugLogging", |inst| {
         let Some(raw) = slice(categories, n_categories) else {
             return null_error(inst, "fmi2SetDebugLogging", "categories");
@@ -226,15 +221,7 @@ pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
 // ---- Values --------------------------------------------------------------------------------
 
 /// Shared body of the getters: read as `f64`, convert to the host's type.
-fn get_values<T>(
-    c: fmi2Component,
-    func: &'static str,
-    kind: &'static str,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut T,
-    convert: fn(f64) -> T,
-) -> fmi2Status {
+fn get_values<T>(c: fmi2Component, func: &'static str, kind: &'static str, vr: *const fmi2ValueReference, nvr: usize, value: *mut T, convert: fn(f64) -> T) -> fmi2Status {
     call(c, func, |inst| {
         let (Some(vrs), Some(out)) = (slice(vr, nvr), slice_mut(value, nvr)) else {
             return null_error(inst, func, "vr or value");
@@ -251,15 +238,7 @@ fn get_values<T>(
 }
 
 /// Shared body of the setters: convert from the host's type to `f64`, then set.
-fn set_values<T: Copy>(
-    c: fmi2Component,
-    func: &'static str,
-    kind: &'static str,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const T,
-    convert: fn(T) -> f64,
-) -> fmi2Status {
+fn set_values<T: Copy>(c: fmi2Component, func: &'static str, kind: &'static str, vr: *const fmi2ValueReference, nvr: usize, value: *const T, convert: fn(T) -> f64) -> fmi2Status {
     call(c, func, |inst| {
         let (Some(vrs), Some(vals)) = (slice(vr, nvr), slice(value, nvr)) else {
             return null_error(inst, func, "vr or value");
@@ -429,12 +408,7 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(c: fmi2Component, state: fmi2FMUs
 
 /// `fmi2DeSerializeFMUstate`.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
-    c: fmi2Component,
-    bytes: *const fmi2Byte,
-    size: usize,
-    state: *mut fmi2FMUstate,
-) -> fmi2Status {
+pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: fmi2Component, bytes: *const fmi2Byte, size: usize, state: *mut fmi2FMUstate) -> fmi2Status {
     const FUNC: &str = "fmi2DeSerializeFMUstate";
     call(c, FUNC, |inst| {
         let (Some(data), Some([slot])) = (slice(bytes.cast::<u8>(), size), slice_mut(state, 1)) else {
@@ -471,26 +445,14 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
 
 /// `fmi2SetRealInputDerivatives`: not used (`canInterpolateInputs="false"`).
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
-    c: fmi2Component,
-    _vr: *const fmi2ValueReference,
-    _nvr: usize,
-    _order: *const fmi2Integer,
-    _value: *const fmi2Real,
-) -> fmi2Status {
+pub unsafe extern "C" fn fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _nvr: usize, _order: *const fmi2Integer, _value: *const fmi2Real) -> fmi2Status {
     const FUNC: &str = "fmi2SetRealInputDerivatives";
     call(c, FUNC, |inst| inst.unsupported(FUNC, "inputs are held constant over a step (canInterpolateInputs=false)"))
 }
 
 /// `fmi2GetRealOutputDerivatives`: not provided (`maxOutputDerivativeOrder="0"`).
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
-    c: fmi2Component,
-    _vr: *const fmi2ValueReference,
-    _nvr: usize,
-    _order: *const fmi2Integer,
-    _value: *mut fmi2Real,
-) -> fmi2Status {
+pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _nvr: usize, _order: *const fmi2Integer, _value: *mut fmi2Real) -> fmi2Status {
     const FUNC: &str = "fmi2GetRealOutputDerivatives";
     call(c, FUNC, |inst| inst.unsupported(FUNC, "output derivatives are not provided (maxOutputDerivativeOrder=0)"))
 }
@@ -499,12 +461,7 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
 
 /// `fmi2DoStep`: always synchronous.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2DoStep(
-    c: fmi2Component,
-    current_communication_point: fmi2Real,
-    communication_step_size: fmi2Real,
-    _no_set_fmu_state_prior_to_current_point: fmi2Boolean,
-) -> fmi2Status {
+pub unsafe extern "C" fn fmi2DoStep(c: fmi2Component, current_communication_point: fmi2Real, communication_step_size: fmi2Real, _no_set_fmu_state_prior_to_current_point: fmi2Boolean) -> fmi2Status {
     call(c, "fmi2DoStep", |inst| inst.do_step(current_communication_point, communication_step_size))
 }
 

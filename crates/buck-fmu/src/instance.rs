@@ -1,7 +1,7 @@
 //! One FMU instance behind the FMI boundary: the FMI 2.0 Co-Simulation state machine, value
 //! access by reference, and FMU states. Safe code; `ffi.rs` only converts pointers to slices.
-use buck_model::variables::{self, Causality, Type, Variable};
 use buck_model::Converter;
+use buck_model::variables::{self, Causality, Type, Variable};
 use serde::{Deserialize, Serialize};
 
 /// Outcome of a call, mapped one-to-one onto `fmi2Status` at the boundary.
@@ -118,13 +118,7 @@ impl Instance {
             logger(Status::Error, "logStatusError", &msg);
             return Err(msg);
         }
-        Ok(Self {
-            converter: default_converter(),
-            phase: Phase::Instantiated,
-            logger,
-            log_calls: false,
-            states: Default::default(),
-        })
+        Ok(Self { converter: default_converter(), phase: Phase::Instantiated, logger, log_calls: false, states: Default::default() })
     }
 
     /// Current phase of the state machine.
@@ -271,10 +265,7 @@ impl Instance {
             match var.causality {
                 Causality::Output => return self.error(func, format!("{} is an output and cannot be set", var.name)),
                 Causality::Parameter if !initializing => {
-                    return self.error(
-                        func,
-                        format!("{} is a fixed parameter: set it before fmi2ExitInitializationMode", var.name),
-                    );
+                    return self.error(func, format!("{} is a fixed parameter: set it before fmi2ExitInitializationMode", var.name));
                 }
                 _ => {}
             }
@@ -303,10 +294,7 @@ impl Instance {
         let own = self.converter.time();
         let offset = (current_time - own).abs();
         if offset.is_nan() || offset > 0.5 * step {
-            return self.error(
-                FUNC,
-                format!("currentCommunicationPoint {current_time} does not continue from the FMU time {own}"),
-            );
+            return self.error(FUNC, format!("currentCommunicationPoint {current_time} does not continue from the FMU time {own}"));
         }
         let periods = step * self.converter.params().fs;
         if periods.is_nan() || periods > MAX_PERIODS_PER_STEP {
@@ -388,8 +376,7 @@ impl Instance {
         if checksum(body) != *sum {
             return Err(self.error(FUNC, "corrupt serialized state: the checksum does not match (truncated or altered bytes)"));
         }
-        let snapshot: Snapshot =
-            postcard::from_bytes(body).map_err(|e| self.error(FUNC, format!("corrupt serialized state: {e}")))?;
+        let snapshot: Snapshot = postcard::from_bytes(body).map_err(|e| self.error(FUNC, format!("corrupt serialized state: {e}")))?;
         // A state that passes the checksum but holds out-of-range parameters (a crafted one) is
         // refused like a bad fmi2SetReal.
         if let Err(e) = snapshot.converter.params().validate() {

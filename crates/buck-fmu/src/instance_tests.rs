@@ -52,12 +52,8 @@ fn calls_out_of_order_are_errors_that_name_the_function() {
 #[test]
 fn bad_values_are_errors_that_name_the_variable_and_change_nothing() {
     let (mut inst, log) = initialized();
-    let cases: &[(&str, f64, &str)] = &[
-        ("duty", 1.5, "duty = 1.5 is out of range"),
-        ("duty", f64::NAN, "duty = NaN is out of range"),
-        ("Cl", 1e-6, "Cl is a fixed parameter"),
-        ("vout", 1.0, "vout is an output"),
-    ];
+    let cases: &[(&str, f64, &str)] =
+        &[("duty", 1.5, "duty = 1.5 is out of range"), ("duty", f64::NAN, "duty = NaN is out of range"), ("Cl", 1e-6, "Cl is a fixed parameter"), ("vout", 1.0, "vout is an output")];
     for &(name, value, expect) in cases {
         inst.reset();
         assert_eq!(inst.enter_initialization_mode(), Status::Ok);

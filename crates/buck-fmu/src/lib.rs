@@ -11,4 +11,4 @@ pub mod description;
 pub mod ffi;
 pub mod instance;
 
-pub use description::{model_description, MODEL_IDENTIFIER};
+pub use description::{MODEL_IDENTIFIER, model_description};

@@ -32,14 +32,7 @@ static LOG: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 /// The logger the host hands the FMU. FMI declares it variadic; the FMU always calls it with
 /// the format `"%s"` and one string, which on x86-64 System V (and AArch64 Linux) arrive in the
 /// same registers as this fixed-argument function's sixth parameter.
-unsafe extern "C" fn logger(
-    _env: fmi2ComponentEnvironment,
-    _name: fmi2String,
-    _status: fmi2Status,
-    category: fmi2String,
-    _format: fmi2String,
-    message: fmi2String,
-) {
+unsafe extern "C" fn logger(_env: fmi2ComponentEnvironment, _name: fmi2String, _status: fmi2Status, category: fmi2String, _format: fmi2String, message: fmi2String) {
     // SAFETY: the FMU passes NUL-terminated strings valid for the call (checked non-null).
     let text = |s: fmi2String| if s.is_null() { String::new() } else { unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned() };
     LOG.lock().unwrap().push((text(category), text(message)));
@@ -47,18 +40,11 @@ unsafe extern "C" fn logger(
 
 fn callbacks(with_logger: bool) -> fmi2CallbackFunctions {
     type Fixed = unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, fmi2String);
-    type Variadic =
-        unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+    type Variadic = unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
     // SAFETY: both are plain function pointers of one size; see `logger` for the calling
     // convention that makes the variadic call land in the fixed-argument function.
     let log = unsafe { std::mem::transmute::<Fixed, Variadic>(logger) };
-    fmi2CallbackFunctions {
-        logger: if with_logger { Some(log) } else { None },
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: ptr::null_mut(),
-    }
+    fmi2CallbackFunctions { logger: if with_logger { Some(log) } else { None }, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: ptr::null_mut() }
 }
 
 /// SplitMix64: a seeded, portable stream (no dependency).
@@ -110,18 +96,8 @@ fn table() -> (Vec<Var>, String) {
         .iter()
         .map(|v| {
             let (kind, min, max, start) = match &v.ty {
-                VariableType::Real(r) => (
-                    Kind::Real,
-                    r.min.unwrap_or(f64::NEG_INFINITY),
-                    r.max.unwrap_or(f64::INFINITY),
-                    r.start.unwrap_or(0.0),
-                ),
-                VariableType::Integer(i) => (
-                    Kind::Integer,
-                    i.min.map_or(f64::from(i32::MIN), f64::from),
-                    i.max.map_or(f64::from(i32::MAX), f64::from),
-                    f64::from(i.start.unwrap_or(0)),
-                ),
+                VariableType::Real(r) => (Kind::Real, r.min.unwrap_or(f64::NEG_INFINITY), r.max.unwrap_or(f64::INFINITY), r.start.unwrap_or(0.0)),
+                VariableType::Integer(i) => (Kind::Integer, i.min.map_or(f64::from(i32::MIN), f64::from), i.max.map_or(f64::from(i32::MAX), f64::from), f64::from(i.start.unwrap_or(0))),
                 VariableType::Boolean(b) => (Kind::Boolean, 0.0, 1.0, f64::from(u8::from(b.start.unwrap_or(false)))),
                 other => panic!("{}: unexpected type {other:?}", v.name),
             };
@@ -428,12 +404,7 @@ impl Host {
                     Kind::Integer => f64::from(*x as fmi2Integer), // what the host passes
                     Kind::Boolean => f64::from(u8::from(*x != 0.0)),
                 };
-                let bad = v.kind != kind
-                    || v.causality == Causality::Output
-                    || (v.causality == Causality::Parameter && !initializing)
-                    || x.is_nan()
-                    || x < v.min
-                    || x > v.max;
+                let bad = v.kind != kind || v.causality == Causality::Output || (v.causality == Causality::Parameter && !initializing) || x.is_nan() || x < v.min || x > v.max;
                 if bad {
                     want = ERROR;
                     break;
@@ -468,11 +439,7 @@ impl Host {
         let vrs = self.pick_vrs(kind);
         let null = !vrs.is_empty() && self.rng.chance(5);
         let bad_vr = |vr: &u32| self.vars.iter().find(|v| v.vr == *vr).is_none_or(|v| v.kind != kind);
-        let want = if null || !Self::allowed(m, &[Init, StepComplete, Terminated, Error]) || vrs.iter().any(bad_vr) {
-            ERROR
-        } else {
-            OK
-        };
+        let want = if null || !Self::allowed(m, &[Init, StepComplete, Terminated, Error]) || vrs.iter().any(bad_vr) { ERROR } else { OK };
         if want == ERROR {
             m.phase = Error;
         }
@@ -833,18 +800,8 @@ fn run_children(first: u64, n: u64, per: u64, timeout: Duration) -> Tally {
         let stdout = String::from_utf8_lossy(&out.stdout);
         let stderr = String::from_utf8_lossy(&out.stderr);
         tally.cases += end - seed;
-        tally.calls += stdout
-            .split("HOSTILE_CALLS=")
-            .nth(1)
-            .and_then(|rest| rest.split_whitespace().next())
-            .and_then(|n| n.parse::<u64>().ok())
-            .unwrap_or(0);
-        tally.steps_ok += stdout
-            .split("HOSTILE_STEPS=")
-            .nth(1)
-            .and_then(|rest| rest.split_whitespace().next())
-            .and_then(|n| n.parse::<u64>().ok())
-            .unwrap_or(0);
+        tally.calls += stdout.split("HOSTILE_CALLS=").nth(1).and_then(|rest| rest.split_whitespace().next()).and_then(|n| n.parse::<u64>().ok()).unwrap_or(0);
+        tally.steps_ok += stdout.split("HOSTILE_STEPS=").nth(1).and_then(|rest| rest.split_whitespace().next()).and_then(|n| n.parse::<u64>().ok()).unwrap_or(0);
         use std::os::unix::process::ExitStatusExt;
         match status {
             None => tally.hangs.push(format!("seeds {seed}..{end}: no exit within {timeout:?}")),
@@ -905,21 +862,10 @@ fn lifecycle(guid: &CStr, cb: &fmi2CallbackFunctions, steps: usize) -> fmi2Compo
 /// a child process of its own, so that other tests' allocations do not count.
 #[test]
 fn ten_thousand_instantiate_free_cycles_keep_rss_flat() {
-    let out = Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", "hostile_child", "--nocapture", "--test-threads=1"])
-        .env("HOSTILE_CHILD_RSS", "1")
-        .output()
-        .unwrap();
+    let out = Command::new(std::env::current_exe().unwrap()).args(["--exact", "hostile_child", "--nocapture", "--test-threads=1"]).env("HOSTILE_CHILD_RSS", "1").output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
-    let nums: Vec<u64> = stdout
-        .split("RSS_KIB=")
-        .nth(1)
-        .unwrap_or_else(|| panic!("no RSS line in {stdout}"))
-        .split_whitespace()
-        .take(2)
-        .map(|n| n.parse().unwrap())
-        .collect();
+    let nums: Vec<u64> = stdout.split("RSS_KIB=").nth(1).unwrap_or_else(|| panic!("no RSS line in {stdout}")).split_whitespace().take(2).map(|n| n.parse().unwrap()).collect();
     let (before, after) = (nums[0], nums[1]);
     eprintln!("10 000 cycles: RSS {before} KiB → {after} KiB");
     // A leak of one converter per cycle (> 1 KiB) would add > 10 MiB.
@@ -1022,7 +968,6 @@ fn valgrind_finds_no_errors_and_no_definite_leaks() {
     assert!(out.status.success(), "valgrind: {}\n{stderr}", out.status);
     assert!(String::from_utf8_lossy(&out.stdout).contains("1 passed"), "the payload did not run");
 }
-
 
 // ---- Findings, replayed ---------------------------------------------------------------------
 

@@ -54,11 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("inductor_saturation", Params { inductor_saturation: 0.2, isat: 1.5, ..base }, 157.5),
         ("cap_dc_bias", Params { cap_dc_bias: 0.5, ..base }, 40.2),
         ("esl", Params { esl: 1e-9, ..base }, 0.285),
-        (
-            "DCM + saturation + dc_bias",
-            Params { diode_drop: 0.45, inductor_saturation: 0.2, isat: 1.5, cap_dc_bias: 0.5, ..base },
-            433.0,
-        ),
+        ("DCM + saturation + dc_bias", Params { diode_drop: 0.45, inductor_saturation: 0.2, isat: 1.5, cap_dc_bias: 0.5, ..base }, 433.0),
     ];
     let duties = prbs(PERIODS);
     println!("{:<28} {:>10} {:>10} {:>10} {:>8}  final vout_avg", "case", "before ms", "best ms", "median ms", "speedup");

@@ -51,11 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     writeln!(out, "time,duty,vout,il,vc,vout_avg,il_avg,duty_applied,vout_adc")?;
     for (t, d, y) in rows {
-        writeln!(
-            out,
-            "{t:e},{d},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-            y.vout, y.il, y.vc, y.vout_avg, y.il_avg, y.duty_applied, y.vout_adc
-        )?;
+        writeln!(out, "{t:e},{d},{:e},{:e},{:e},{:e},{:e},{:e},{:e}", y.vout, y.il, y.vc, y.vout_avg, y.il_avg, y.duty_applied, y.vout_adc)?;
     }
     eprintln!("simulated {} periods in {:.3} ms", duties.len(), elapsed.as_secs_f64() * 1e3);
     Ok(())

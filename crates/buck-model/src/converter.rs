@@ -880,14 +880,7 @@ impl Converter {
 /// value at the extremum, located on `dil/dt`. Within one piece `il` is a smooth sum of
 /// exponentials far slower than the period (at most one extremum), which is what this relies
 /// on: inside the bracket there is one crossing, located on `il`. Both are located to `tol`.
-fn first_crossing(
-    ladder: &Ladder,
-    (start, end): (&Point, &Point),
-    u: &Vector2<f64>,
-    tau: f64,
-    levels: &[(f64, f64)],
-    tol: f64,
-) -> Option<(Point, f64)> {
+fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)], tol: f64) -> Option<(Point, f64)> {
     let mut best: Option<(Point, f64)> = None;
     for &(level, side) in levels {
         let crossing = Watch { order: 0, level, sign: side };

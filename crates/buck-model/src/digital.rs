@@ -115,10 +115,7 @@ impl Digital {
     /// The ADC conversion at the start of period `k`.
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
         let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
-        self.reading = [
-            quantize(noisy, 0.0, self.adc_vfs, self.adc_bits),
-            quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits),
-        ];
+        self.reading = [quantize(noisy, 0.0, self.adc_vfs, self.adc_bits), quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits)];
     }
 
     /// The latest ADC reading `(vout, il)`.

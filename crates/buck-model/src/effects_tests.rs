@@ -114,11 +114,7 @@ fn dead_time_duty_loss_and_gain() {
         let mut conv = converter(p, Mode::Switched, d, io);
         settle(&mut conv, 6000);
         let y = conv.outputs();
-        let expected = if io > 0.0 {
-            (d - td * p.fs) * 12.0 - 2.0 * td * p.fs * vbd - 0.1 * io
-        } else {
-            (d + td * p.fs) * 12.0 + 2.0 * td * p.fs * vbd - 0.1 * io
-        };
+        let expected = if io > 0.0 { (d - td * p.fs) * 12.0 - 2.0 * td * p.fs * vbd - 0.1 * io } else { (d + td * p.fs) * 12.0 + 2.0 * td * p.fs * vbd - 0.1 * io };
         assert_relative_eq!(y.vout_avg, expected, epsilon = 1e-7);
         assert_relative_eq!(y.il_avg, io, epsilon = 1e-7);
     }
@@ -283,8 +279,7 @@ impl Reference {
             let step = h.min(left);
             let next = self.rk4(&self.x, u_sw, step);
             let isat = self.p.isat;
-            let crossed = self.p.inductor_saturation > 0.0
-                && ((self.x[0].abs() - isat) * (next[0].abs() - isat) < 0.0);
+            let crossed = self.p.inductor_saturation > 0.0 && ((self.x[0].abs() - isat) * (next[0].abs() - isat) < 0.0);
             if !crossed {
                 self.x = next;
                 left -= step;
@@ -458,8 +453,20 @@ impl EventReference {
             }
             let diode = !high && asynchronous && !self.blocked;
             let l = if self.saturated && !self.blocked { p.l * (1.0 - p.inductor_saturation) } else { p.l };
-            let r = if diode { p.rl + p.diode_resistance } else if self.blocked { p.rl } else { p.rl + p.switch_resistance };
-            let u_sw = if high { 12.0 } else if diode { -p.diode_drop } else { 0.0 };
+            let r = if diode {
+                p.rl + p.diode_resistance
+            } else if self.blocked {
+                p.rl
+            } else {
+                p.rl + p.switch_resistance
+            };
+            let u_sw = if high {
+                12.0
+            } else if diode {
+                -p.diode_drop
+            } else {
+                0.0
+            };
             let circuit = (r, l, self.blocked);
             let g = |t: f64| self.event(self.flow(circuit, u_sw, t).0[0], diode);
             let n = 32;

@@ -128,36 +128,13 @@ pub struct Variable {
     pub description: &'static str,
 }
 
-const fn real(
-    id: VarId,
-    name: &'static str,
-    causality: Causality,
-    unit: &'static str,
-    range: (f64, f64),
-    start: Option<f64>,
-    description: &'static str,
-) -> Variable {
-    let variability =
-        if matches!(causality, Causality::Parameter) { Variability::Fixed } else { Variability::Continuous };
-    Variable {
-        id,
-        name,
-        causality,
-        variability,
-        ty: Type::Real { unit, min: range.0, max: range.1, start },
-        description,
-    }
+const fn real(id: VarId, name: &'static str, causality: Causality, unit: &'static str, range: (f64, f64), start: Option<f64>, description: &'static str) -> Variable {
+    let variability = if matches!(causality, Causality::Parameter) { Variability::Fixed } else { Variability::Continuous };
+    Variable { id, name, causality, variability, ty: Type::Real { unit, min: range.0, max: range.1, start }, description }
 }
 
 const fn integer(id: VarId, name: &'static str, range: (i32, i32), start: i32, description: &'static str) -> Variable {
-    Variable {
-        id,
-        name,
-        causality: Causality::Parameter,
-        variability: Variability::Fixed,
-        ty: Type::Integer { min: range.0, max: range.1, start },
-        description,
-    }
+    Variable { id, name, causality: Causality::Parameter, variability: Variability::Fixed, ty: Type::Integer { min: range.0, max: range.1, start }, description }
 }
 
 const ANY: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -219,12 +196,44 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::Esl, "esl", Parameter, "H", (0.0, 1e-6), Some(0.0), "Series inductance of the C branch (both modes)"),
     real(VarId::InductorSaturation, "inductor_saturation", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of L lost for |il| > isat (both modes)"),
     real(VarId::Isat, "isat", Parameter, "A", (1e-3, 1e4), Some(10.0), "Saturation current of the inductor"),
-    real(VarId::CapDcBias, "cap_dc_bias", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), capped at V_rated, held over each period at its value for the mid-period voltage (both modes)"),
+    real(
+        VarId::CapDcBias,
+        "cap_dc_bias",
+        Parameter,
+        "1",
+        (0.0, 0.9),
+        Some(0.0),
+        "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), capped at V_rated, held over each period at its value for the mid-period voltage (both modes)",
+    ),
     real(VarId::CapRatedVoltage, "cap_rated_voltage", Parameter, "V", (0.1, 1000.0), Some(16.0), "Rated voltage of Cl for cap_dc_bias"),
     real(VarId::Rload, "rload", Parameter, "Ohm", (0.0, 1e9), Some(0.0), "Load resistance from the output node vout to ground, beside the load current io; 0 = none (both modes)"),
-    real(VarId::DiodeResistance, "diode_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)"),
-    real(VarId::SwitchNodeCapacitance, "switch_node_capacitance", Parameter, "F", (0.0, 1e-6), Some(0.0), "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)"),
-    real(VarId::LowSideRatio, "low_side_ratio", Parameter, "1", (0.01, 100.0), Some(1.0), "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)"),
+    real(
+        VarId::DiodeResistance,
+        "diode_resistance",
+        Parameter,
+        "Ohm",
+        (0.0, 10.0),
+        Some(0.0),
+        "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)",
+    ),
+    real(
+        VarId::SwitchNodeCapacitance,
+        "switch_node_capacitance",
+        Parameter,
+        "F",
+        (0.0, 1e-6),
+        Some(0.0),
+        "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)",
+    ),
+    real(
+        VarId::LowSideRatio,
+        "low_side_ratio",
+        Parameter,
+        "1",
+        (0.01, 100.0),
+        Some(1.0),
+        "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)",
+    ),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
@@ -262,14 +271,8 @@ impl Variable {
     /// Checks an integer value (given as `f64`) against the declared range.
     pub fn check_integer(&self, value: f64) -> Result<i32, ModelError> {
         match self.ty {
-            Type::Integer { min, max, .. } if value.fract() == 0.0 && value >= f64::from(min) && value <= f64::from(max) => {
-                Ok(value as i32)
-            }
-            Type::Integer { min, max, .. } => Err(ModelError::OutOfRange {
-                name: self.name,
-                value,
-                range: format!("an integer within [{min}, {max}]"),
-            }),
+            Type::Integer { min, max, .. } if value.fract() == 0.0 && value >= f64::from(min) && value <= f64::from(max) => Ok(value as i32),
+            Type::Integer { min, max, .. } => Err(ModelError::OutOfRange { name: self.name, value, range: format!("an integer within [{min}, {max}]") }),
             _ => Err(ModelError::UnknownReference { vr: self.vr(), kind: "Integer" }),
         }
     }

@@ -31,12 +31,7 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     }
     meta.remove("periods_from");
     std::fs::write(&args.out, capture::to_csv(&periods, &meta)).with_context(|| format!("writing {}", args.out.display()))?;
-    println!(
-        "periods     {} complete, fs {:.6} kHz measured ({})",
-        periods.time.len(),
-        periods.fs / 1e3,
-        periods.source
-    );
+    println!("periods     {} complete, fs {:.6} kHz measured ({})", periods.time.len(), periods.fs / 1e3, periods.source);
     println!("duty        {:.4} … {:.4}", periods.duty.iter().copied().fold(f64::INFINITY, f64::min), periods.duty.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     eprintln!("wrote {}", args.out.display());
     Ok(())

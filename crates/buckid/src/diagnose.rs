@@ -110,22 +110,12 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     };
 
     println!("source      {}", args.data.display());
-    println!(
-        "gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF)",
-        dx.gap_before.nrmse,
-        name(dx.nominal),
-        dx.gap_before.cl * 1e6
-    );
+    println!("gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF)", dx.gap_before.nrmse, name(dx.nominal), dx.gap_before.cl * 1e6);
     if let Some((f, _)) = &fmu_out {
         let cl = f.cl.map_or_else(|| "its own Cl".to_string(), |cl| format!("Cl {:.4} µF", cl * 1e6));
         println!("FMU         held-out NRMSE {:.4} as given ({}, {cl})", f.nrmse, f.path);
     }
-    println!(
-        "noise floor {:.3e} V RMS under a held-out residual of {:.3e} V RMS (floor: {})",
-        dx.location.noise_floor_rms,
-        dx.gap_before.rms,
-        dx.location.noise_floor_from.describe()
-    );
+    println!("noise floor {:.3e} V RMS under a held-out residual of {:.3e} V RMS (floor: {})", dx.location.noise_floor_rms, dx.gap_before.rms, dx.location.noise_floor_from.describe());
     println!("where       {}", dx.location.summary);
     for e in &dx.effects {
         let mut params = effect_params(e);
@@ -165,13 +155,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     if let Some(dir) = &args.report {
         let source = args.data.display().to_string();
-        let ctx = crate::report::diagnose::Context {
-            source: &source,
-            data: &data,
-            nominal: &nominal,
-            assumed: &assumed,
-            fmu: fmu_out.as_ref().map(|(f, sim)| (f.path.as_str(), f.nrmse, sim.as_slice())),
-        };
+        let ctx =
+            crate::report::diagnose::Context { source: &source, data: &data, nominal: &nominal, assumed: &assumed, fmu: fmu_out.as_ref().map(|(f, sim)| (f.path.as_str(), f.nrmse, sim.as_slice())) };
         let file = crate::report::diagnose::write(dir, &dx, &ctx)?;
         eprintln!("wrote {}", file.display());
     }

@@ -34,13 +34,7 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
     let mut p = Params::default();
     let mut assumed = Vec::new();
     type Field = fn(&mut Params) -> &mut f64;
-    let fields: [(&str, Field); 5] = [
-        ("L", |p| &mut p.l),
-        ("RL", |p| &mut p.rl),
-        ("C", |p| &mut p.c),
-        ("Rc", |p| &mut p.rc),
-        ("fs", |p| &mut p.fs),
-    ];
+    let fields: [(&str, Field); 5] = [("L", |p| &mut p.l), ("RL", |p| &mut p.rl), ("C", |p| &mut p.c), ("Rc", |p| &mut p.rc), ("fs", |p| &mut p.fs)];
     let valid = |key: &str, v: f64| v.is_finite() && v > 0.0 || (key == "RL" && v == 0.0);
     for (key, field) in fields {
         let meta = data.meta_f64(key)?;
@@ -97,9 +91,7 @@ fn record_from_fmu(args: &IdentifyArgs, path: &std::path::Path) -> Result<(DataS
     if args.closed_loop {
         // Our FMU's closed loop; FMUs without these variables keep their own settings.
         defaults.extend([("control".to_string(), 2.0), ("dpwm_bits".to_string(), 10.0)]);
-        default_map = [("duty", "duty_dither"), ("vout", "vout_adc"), ("il", "il_adc")]
-            .map(|(r, n)| (r.to_string(), n.to_string()))
-            .to_vec();
+        default_map = [("duty", "duty_dither"), ("vout", "vout_adc"), ("il", "il_adc")].map(|(r, n)| (r.to_string(), n.to_string())).to_vec();
     }
     let opts = FmuOptions { map, set, defaults, default_map, fs: None };
     eprintln!("loading {}", path.display());
@@ -275,12 +267,7 @@ struct CandidateOut {
 }
 
 fn interval(c: &estimator::identify::Candidate) -> Interval {
-    let e = c.fit.estimate("Cl").copied().unwrap_or(estimator::pem::Estimate {
-        name: "Cl",
-        value: f64::NAN,
-        ci95: (f64::NAN, f64::NAN),
-        rel_std: f64::NAN,
-    });
+    let e = c.fit.estimate("Cl").copied().unwrap_or(estimator::pem::Estimate { name: "Cl", value: f64::NAN, ci95: (f64::NAN, f64::NAN), rel_std: f64::NAN });
     Interval { estimate: e.value, ci95: [e.ci95.0, e.ci95.1], rel_std: e.rel_std }
 }
 
@@ -393,14 +380,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     Ok(())
 }
 
-fn output(
-    id: &Identification,
-    nominal: &Params,
-    assumed: &[String],
-    source: &str,
-    experiment_seconds: Option<f64>,
-    noise: NoiseModel,
-) -> Output {
+fn output(id: &Identification, nominal: &Params, assumed: &[String], source: &str, experiment_seconds: Option<f64>, noise: NoiseModel) -> Output {
     let best = id.best();
     let r = &best.validation.residuals;
     Output {
@@ -425,17 +405,11 @@ fn output(
             ccf_statistic: r.ccf_statistic,
             ccf_limit: r.ccf_limit,
         },
-        nominal: [("L", nominal.l), ("RL", nominal.rl), ("C", nominal.c), ("Rc", nominal.rc), ("fs", nominal.fs), ("rload", nominal.rload)]
-            .into_iter()
-            .collect(),
+        nominal: [("L", nominal.l), ("RL", nominal.rl), ("C", nominal.c), ("Rc", nominal.rc), ("fs", nominal.fs), ("rload", nominal.rload)].into_iter().collect(),
         assumed: assumed.to_vec(),
         source: source.to_string(),
         excitation: None,
-        candidates: id
-            .candidates
-            .iter()
-            .map(|c| CandidateOut { model: c.structure.name(), cl: interval(c), fit_percent: fit_percent(c), seconds: c.seconds })
-            .collect(),
+        candidates: id.candidates.iter().map(|c| CandidateOut { model: c.structure.name(), cl: interval(c), fit_percent: fit_percent(c), seconds: c.seconds }).collect(),
         estimated: BTreeMap::new(),
     }
 }
@@ -465,12 +439,7 @@ fn print_summary(id: &Identification, source: &str) {
     if id.candidates.len() > 1 {
         for c in &id.candidates[1..] {
             let i = interval(c);
-            println!(
-                "also tried  {}: Cl {:.4} µF, held-out prediction fit {:.2} %",
-                c.structure.name(),
-                i.estimate * 1e6,
-                c.validation.fit_prediction[0]
-            );
+            println!("also tried  {}: Cl {:.4} µF, held-out prediction fit {:.2} %", c.structure.name(), i.estimate * 1e6, c.validation.fit_prediction[0]);
         }
     }
     println!("fit time    {:.2} ms", best.seconds * 1e3);

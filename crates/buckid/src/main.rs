@@ -4,12 +4,12 @@
 //! an HTML report with `--report DIR`.
 #![forbid(unsafe_code)]
 
+mod convert;
 mod diagnose;
 mod identify;
 mod nominal_fmu;
 mod report;
 mod simulate;
-mod convert;
 mod sweep;
 mod units;
 

@@ -59,9 +59,7 @@ impl NominalFmu {
         let fmu = Fmu::open(path).with_context(|| format!("opening FMU {}", path.display()))?;
         let circuit = CIRCUIT.iter().filter_map(|&name| Some((name, start(&fmu, name)?))).collect();
         let mode = start(&fmu, "mode");
-        let has_cl = fmu
-            .variable("Cl")
-            .is_some_and(|v| matches!(v.ty, VariableType::Real(_)) && v.causality == Causality::Parameter);
+        let has_cl = fmu.variable("Cl").is_some_and(|v| matches!(v.ty, VariableType::Real(_)) && v.causality == Causality::Parameter);
         Ok(Self { fmu, path: path.to_path_buf(), circuit, mode, has_cl })
     }
 
@@ -91,8 +89,7 @@ impl NominalFmu {
         let cl = self.has_cl.then_some(cl);
         let set = cl.map(|cl| vec![("Cl".to_string(), cl)]).unwrap_or_default();
         let opts = FmuOptions { map, set, fs: Some(1.0 / data.sample_period()), ..FmuOptions::default() };
-        let mut plant = FmuPlant::from_fmu(self.fmu, &self.path, &opts)
-            .with_context(|| format!("instantiating FMU {}", self.path.display()))?;
+        let mut plant = FmuPlant::from_fmu(self.fmu, &self.path, &opts).with_context(|| format!("instantiating FMU {}", self.path.display()))?;
         let n = data.len();
         if start >= n {
             bail!("no held-out samples to run the FMU on");

@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-
 /// A report page being assembled: HTML fragments and figures in order.
 pub struct Page {
     title: String,
@@ -42,8 +41,7 @@ impl Page {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (file, svg) in &self.figures {
             let path = dir.join(file);
-            std::fs::write(&path, format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{svg}\n"))
-                .with_context(|| format!("writing {}", path.display()))?;
+            std::fs::write(&path, format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{svg}\n")).with_context(|| format!("writing {}", path.display()))?;
         }
         let html = format!(
             r#"<!doctype html><html><head><meta charset="utf-8"><title>{}</title>

@@ -63,14 +63,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Some(path) => Some(read_inputs(&fmu, path)?),
         None => None,
     };
-    eprintln!(
-        "simulating {} ({}) from {} s to {} s, step {} s",
-        args.fmu.display(),
-        fmu.model_description().model_name,
-        exp.start,
-        exp.stop,
-        exp.step
-    );
+    eprintln!("simulating {} ({}) from {} s to {} s, step {} s", args.fmu.display(), fmu.model_description().model_name, exp.start, exp.stop, exp.step);
     let rec = simulate(&fmu, &exp, &start_values, inputs.as_ref(), &record)?;
     for note in &rec.notes {
         eprintln!("note: {note}");
@@ -115,11 +108,7 @@ fn read_inputs(fmu: &Fmu, path: &Path) -> Result<Inputs> {
     if header.get(0) != Some("time") {
         bail!(where_(format!("the first column must be `time`, not {:?}", header.get(0).unwrap_or(""))));
     }
-    let variables = header
-        .iter()
-        .skip(1)
-        .map(|name| fmu.resolve(name).with_context(|| where_(format!("column `{name}`"))))
-        .collect::<Result<Vec<_>>>()?;
+    let variables = header.iter().skip(1).map(|name| fmu.resolve(name).with_context(|| where_(format!("column `{name}`")))).collect::<Result<Vec<_>>>()?;
     let (mut times, mut rows) = (Vec::new(), Vec::new());
     for record in reader.records() {
         let record = record.with_context(|| where_("reading a row".into()))?;

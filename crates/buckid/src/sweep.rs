@@ -45,10 +45,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         let mut v = serde_json::to_value(&d)?;
         if let Some(obj) = v.as_object_mut() {
             obj.insert("sweep".into(), serde_json::json!(path.display().to_string()));
-            obj.insert(
-                "circuit".into(),
-                serde_json::json!({"L": circuit.l, "RL": circuit.rl, "fs": circuit.fs, "rds_on": circuit.rds_on, "vbd": circuit.body_diode_drop}),
-            );
+            obj.insert("circuit".into(), serde_json::json!({"L": circuit.l, "RL": circuit.rl, "fs": circuit.fs, "rds_on": circuit.rds_on, "vbd": circuit.body_diode_drop}));
             obj.insert("assumed".into(), serde_json::json!(assumed));
         }
         std::fs::write(out, serde_json::to_string_pretty(&v)?).with_context(|| format!("writing {}", out.display()))?;
@@ -112,11 +109,7 @@ fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Result<Page> {
     let plot = chart(
         "Mean output voltage against duty",
         Axis::linear("vout", "V"),
-        vec![
-            line("measured", BLACK, Mark::Dots, |p| p.measured),
-            line("nominal", GREY, Mark::Dashed, |p| p.expected),
-            line("with the selected effects", RED, Mark::Solid, |p| p.fitted),
-        ],
+        vec![line("measured", BLACK, Mark::Dots, |p| p.measured), line("nominal", GREY, Mark::Dashed, |p| p.expected), line("with the selected effects", RED, Mark::Solid, |p| p.fitted)],
     );
     page.figure("vout_vs_duty", plot.render()?);
     let resid = chart(
@@ -141,11 +134,7 @@ fn report(d: &Diagnosis, source: &str, assumed: &[String]) -> Result<Page> {
         .collect();
     page.html("<h2>Each effect alone</h2>");
     page.html(&table(&["effect", "params", "RMS after", "closed", "significant & identified", "note"], &rows));
-    let steps: Vec<Vec<String>> = d
-        .selected
-        .iter()
-        .map(|s| vec![esc(s.name), s.rms_after.map_or("—".into(), |r| si(r, "V", 3)), s.p_value.map_or("—".into(), p_value)])
-        .collect();
+    let steps: Vec<Vec<String>> = d.selected.iter().map(|s| vec![esc(s.name), s.rms_after.map_or("—".into(), |r| si(r, "V", 3)), s.p_value.map_or("—".into(), p_value)]).collect();
     page.html("<h2>Forward selection</h2>");
     page.html(&table(&["added", "RMS after", "p (F test)"], &steps));
     Ok(page)

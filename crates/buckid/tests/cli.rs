@@ -94,7 +94,13 @@ fn assert_no_exponent(html: &str) {
         match c {
             '<' => {
                 in_tag = true;
-                in_code = if html[i..].starts_with("<code>") { true } else if html[i..].starts_with("</code>") { false } else { in_code };
+                in_code = if html[i..].starts_with("<code>") {
+                    true
+                } else if html[i..].starts_with("</code>") {
+                    false
+                } else {
+                    in_code
+                };
             }
             '>' => {
                 in_tag = false;
@@ -325,8 +331,21 @@ fn identify_with_a_resistive_load_from_the_fmu_and_from_a_file() {
     let saved = dir.path().join("saved.csv");
     let fmu = buck_fmu().to_str().unwrap();
     let o = buckid(&[
-        "identify", "--fmu", fmu, "--set", "rload=10", "--set", "Cl=4.7e-6", "--samples", "2000", "--noise-vout", "2e-3", "--json", out.to_str().unwrap(),
-        "--save-data", saved.to_str().unwrap(),
+        "identify",
+        "--fmu",
+        fmu,
+        "--set",
+        "rload=10",
+        "--set",
+        "Cl=4.7e-6",
+        "--samples",
+        "2000",
+        "--noise-vout",
+        "2e-3",
+        "--json",
+        out.to_str().unwrap(),
+        "--save-data",
+        saved.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let j = json(&out);
@@ -381,14 +400,7 @@ fn diagnose_sweep_on_the_lab_fixture() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let json = dir.path().join("sweep.json");
     let lab = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/sweep/lab24v.csv");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_buckid"))
-        .args(["diagnose", "--sweep"])
-        .arg(&lab)
-        .arg("--json")
-        .arg(&json)
-        .arg("--report")
-        .arg(dir.path().join("report"))
-        .output()?;
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_buckid")).args(["diagnose", "--sweep"]).arg(&lab).arg("--json").arg(&json).arg("--report").arg(dir.path().join("report")).output()?;
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("assuming rds_on"));
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json)?)?;

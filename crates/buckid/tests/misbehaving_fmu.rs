@@ -43,12 +43,7 @@ fn build(dir: &Path, define: Option<&str>) -> PathBuf {
 }
 
 fn identify(fmu: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_buckid"))
-        .args(["identify", "--fmu"])
-        .arg(fmu)
-        .args(["--samples", "200"])
-        .output()
-        .expect("run buckid")
+    Command::new(env!("CARGO_BIN_EXE_buckid")).args(["identify", "--fmu"]).arg(fmu).args(["--samples", "200"]).output().expect("run buckid")
 }
 
 #[test]

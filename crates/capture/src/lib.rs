@@ -96,15 +96,7 @@ impl Capture {
             return Err(data_err("the file has a header but no data rows"));
         }
         let opt = |c: usize, cols: &mut Vec<Vec<f64>>| index[c].is_some().then(|| std::mem::take(&mut cols[c]));
-        Ok(Capture {
-            il: opt(2, &mut cols),
-            sw: opt(3, &mut cols),
-            gate: opt(4, &mut cols),
-            vin: opt(5, &mut cols),
-            time: std::mem::take(&mut cols[0]),
-            vout: std::mem::take(&mut cols[1]),
-            meta,
-        })
+        Ok(Capture { il: opt(2, &mut cols), sw: opt(3, &mut cols), gate: opt(4, &mut cols), vin: opt(5, &mut cols), time: std::mem::take(&mut cols[0]), vout: std::mem::take(&mut cols[1]), meta })
     }
 }
 
@@ -221,9 +213,10 @@ pub fn reduce(cap: &Capture, fs: Option<f64>) -> Result<Periods, CaptureError> {
     let (boundaries, falling, source) = match found {
         Some((name, r, f)) => (r, Some(f), format!("rising edges of `{name}`")),
         None => {
-            let fs = fs.or(meta_fs).filter(|f| f.is_finite() && *f > 0.0).ok_or_else(|| {
-                CaptureError::Periods("no switching edges found (no `sw` or `gate` column, or no two rising edges in it) and no switching frequency given (--fs or `# fs`)".into())
-            })?;
+            let fs = fs
+                .or(meta_fs)
+                .filter(|f| f.is_finite() && *f > 0.0)
+                .ok_or_else(|| CaptureError::Periods("no switching edges found (no `sw` or `gate` column, or no two rising edges in it) and no switching frequency given (--fs or `# fs`)".into()))?;
             let period = 1.0 / fs;
             // Phase: the valley of the inductor current folded over one period is the period start.
             let (phase, how) = match &cap.il {

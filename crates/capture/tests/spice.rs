@@ -37,13 +37,7 @@ fn compare(scope: &Path, periods: &Path) -> anyhow::Result<()> {
         // gate ramp (2.5 ns) later.
         let k = (p.time[i] * fs).round() as usize;
         assert!((p.time[i] - k as f64 / fs).abs() < 40e-9, "period {i} starts at {} s", p.time[i]);
-        let errs = [
-            p.duty[i] - truth["duty"][k],
-            p.vout[i] - truth["vout"][k],
-            p.vout_avg[i] - truth["vout_avg"][k],
-            il[i] - truth["il"][k],
-            il_avg[i] - truth["il_avg"][k],
-        ];
+        let errs = [p.duty[i] - truth["duty"][k], p.vout[i] - truth["vout"][k], p.vout_avg[i] - truth["vout_avg"][k], il[i] - truth["il"][k], il_avg[i] - truth["il_avg"][k]];
         for (w, e) in worst.iter_mut().zip(errs) {
             *w = w.max(e.abs());
         }

@@ -54,13 +54,8 @@ impl Sweep {
     pub fn circuit(&self, fallback: &Circuit) -> Result<(Circuit, Vec<String>), SweepError> {
         let mut c = *fallback;
         let mut assumed = Vec::new();
-        let fields: [(&str, &mut f64, &str); 5] = [
-            ("L", &mut c.l, "H"),
-            ("RL", &mut c.rl, "Ω"),
-            ("fs", &mut c.fs, "Hz"),
-            ("rds_on", &mut c.rds_on, "Ω"),
-            ("vbd", &mut c.body_diode_drop, "V (body diode drop, used with dead time)"),
-        ];
+        let fields: [(&str, &mut f64, &str); 5] =
+            [("L", &mut c.l, "H"), ("RL", &mut c.rl, "Ω"), ("fs", &mut c.fs, "Hz"), ("rds_on", &mut c.rds_on, "Ω"), ("vbd", &mut c.body_diode_drop, "V (body diode drop, used with dead time)")];
         for (key, slot, unit) in fields {
             match self.meta_f64(key)? {
                 Some(v) => *slot = v,
@@ -99,9 +94,7 @@ impl Sweep {
             for (c, idx) in index.iter().enumerate() {
                 let Some(idx) = idx else { continue };
                 let field = record.get(*idx).unwrap_or("");
-                let value: f64 = field
-                    .parse()
-                    .map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
+                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
                 if !value.is_finite() {
                     return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
                 }
@@ -128,8 +121,7 @@ impl Sweep {
             }
             Ok(sweep.meta_f64(key)?.map(|v| vec![v; n]))
         };
-        let vin = column_or_meta(1, "U")?
-            .ok_or_else(|| data_err("column `vin` is missing and no `# U = …` metadata gives it"))?;
+        let vin = column_or_meta(1, "U")?.ok_or_else(|| data_err("column `vin` is missing and no `# U = …` metadata gives it"))?;
         let io = column_or_meta(2, "io")?;
         let rload = column_or_meta(3, "rload")?;
         if io.is_none() && rload.is_none() {
@@ -138,14 +130,7 @@ impl Sweep {
         if let Some(r) = rload.as_ref().and_then(|r| r.iter().find(|v| **v <= 0.0)) {
             return Err(data_err(format!("metadata `rload = {r}` is not a positive resistance")));
         }
-        let points = (0..n)
-            .map(|i| OperatingPoint {
-                duty: cols[0][i],
-                vin: vin[i],
-                io: io.as_ref().map_or(0.0, |v| v[i]),
-                rload: rload.as_ref().map(|v| v[i]),
-            })
-            .collect();
+        let points = (0..n).map(|i| OperatingPoint { duty: cols[0][i], vin: vin[i], io: io.as_ref().map_or(0.0, |v| v[i]), rload: rload.as_ref().map(|v| v[i]) }).collect();
         let il = index[5].is_some().then(|| cols[5].clone());
         Ok(Sweep { points, vout: std::mem::take(&mut cols[4]), il, ..sweep })
     }

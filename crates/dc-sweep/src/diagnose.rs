@@ -403,10 +403,14 @@ impl Problem<'_> {
         let inv = (js.transpose() * js).try_inverse()?;
         let s2 = sse / dof;
         let t = t_quantile(0.95, dof);
-        Some((0..p).map(|k| {
-            let half = t * (s2 * inv[(k, k)]).sqrt() * scales[k];
-            [theta[k] - half, theta[k] + half]
-        }).collect())
+        Some(
+            (0..p)
+                .map(|k| {
+                    let half = t * (s2 * inv[(k, k)]).sqrt() * scales[k];
+                    [theta[k] - half, theta[k] + half]
+                })
+                .collect(),
+        )
     }
 
     /// Best of several starts for `base` extended by `extra`.
@@ -414,11 +418,7 @@ impl Problem<'_> {
         let mut set = base.set.clone();
         set.push(extra);
         let starts = extra.starts(&self.nominal);
-        let starts: Vec<Vec<f64>> = if starts.is_empty() {
-            vec![base.theta.clone()]
-        } else {
-            starts.iter().map(|s| base.theta.iter().copied().chain([*s]).collect()).collect()
-        };
+        let starts: Vec<Vec<f64>> = if starts.is_empty() { vec![base.theta.clone()] } else { starts.iter().map(|s| base.theta.iter().copied().chain([*s]).collect()).collect() };
         starts.iter().filter_map(|t0| self.levenberg_marquardt(&set, t0)).min_by(|a, b| a.sse.total_cmp(&b.sse))
     }
 
@@ -427,12 +427,7 @@ impl Problem<'_> {
         let p_total = base.theta.len() + extra.params().len();
         let mut out = EffectFit::untested(extra.name(), None);
         if self.distinct < p_total + 2 {
-            out.note = Some(format!(
-                "the data cannot support it: {} parameter(s) need at least {} distinct operating points, the sweep has {}",
-                p_total,
-                p_total + 2,
-                self.distinct
-            ));
+            out.note = Some(format!("the data cannot support it: {} parameter(s) need at least {} distinct operating points, the sweep has {}", p_total, p_total + 2, self.distinct));
             return (out, None);
         }
         let Some(fit) = self.fit_extended(base, extra) else {
@@ -492,10 +487,8 @@ impl Problem<'_> {
         let (mut steps, mut current) = (Vec::new(), start.clone());
         loop {
             let remaining = Effect::ALL.iter().copied().filter(|e| !current.set.contains(e) && !excluded.contains(e));
-            let mut round: Vec<(EffectFit, Fit)> = remaining
-                .map(|e| self.test(&current, e, sse0, opts))
-                .filter_map(|(f, fit)| fit.filter(|_| f.significant && f.identifiable && f.physical && f.material).map(|fit| (f, fit)))
-                .collect();
+            let mut round: Vec<(EffectFit, Fit)> =
+                remaining.map(|e| self.test(&current, e, sse0, opts)).filter_map(|(f, fit)| fit.filter(|_| f.significant && f.identifiable && f.physical && f.material).map(|fit| (f, fit))).collect();
             round.sort_by(|a, b| a.1.sse.total_cmp(&b.1.sse));
             let Some((best, fit)) = round.into_iter().next() else { break };
             steps.push(best);
@@ -522,9 +515,7 @@ pub fn diagnose(sweep: &Sweep, nominal: &Circuit, opts: &Options) -> Result<Diag
     let std = (sweep.vout.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
     let problem = Problem { nominal: *nominal, sweep, n, distinct, std };
     let nominal_fit = Fit { set: Vec::new(), theta: Vec::new(), sse: 0.0, ci95: Some(Vec::new()) };
-    let expected = problem
-        .predict(&[], &[])
-        .ok_or_else(|| crate::error::model_err("the nominal model has no steady state at some operating point"))?;
+    let expected = problem.predict(&[], &[]).ok_or_else(|| crate::error::model_err("the nominal model has no steady state at some operating point"))?;
     let r0: Vec<f64> = sweep.vout.iter().zip(&expected).map(|(m, e)| m - e).collect();
     let sse0 = r0.iter().map(|v| v * v).sum::<f64>();
     let nominal_fit = Fit { sse: sse0, ..nominal_fit };
@@ -565,10 +556,7 @@ pub fn diagnose(sweep: &Sweep, nominal: &Circuit, opts: &Options) -> Result<Diag
             current = fit;
         }
     } else {
-        effects = Effect::ALL
-            .iter()
-            .map(|e| EffectFit::untested(e.name(), message.clone()))
-            .collect();
+        effects = Effect::ALL.iter().map(|e| EffectFit::untested(e.name(), message.clone())).collect();
     }
     let fitted = problem.predict(&current.set, &current.theta).unwrap_or_else(|| expected.clone());
     let by_operating_point = sweep

@@ -117,15 +117,7 @@ fn main() {
         let sigma = crlb_rel(&mut plant, Structure::Averaged, &truth);
         let (first, mean, rms, cover) = monte_carlo(&mut plant, Structure::Averaged, truth.cl, runs);
         worst_cover = (worst_cover.0.min(cover), worst_cover.1.max(cover));
-        println!(
-            "| {cl} | {:.3} | {:.3} | {:.2} | {:+.3} | {:+.2} | {:.1} |",
-            100.0 * sigma,
-            100.0 * rms,
-            rms / sigma,
-            100.0 * mean,
-            first / sigma,
-            cover
-        );
+        println!("| {cl} | {:.3} | {:.3} | {:.2} | {:+.3} | {:+.2} | {:.1} |", 100.0 * sigma, 100.0 * rms, rms / sigma, 100.0 * mean, first / sigma, cover);
     }
     println!("\nCoverage range over the grid: {:.1}–{:.1} % (target 95 ± 3 %).\n", worst_cover.0, worst_cover.1);
 

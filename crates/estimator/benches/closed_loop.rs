@@ -20,8 +20,7 @@ use estimator::model::Structure;
 use estimator::pem::NoiseModel;
 
 const GRID_UF: [f64; 8] = [2.0, 3.0, 5.0, 7.0, 10.0, 50.0, 80.0, 100.0];
-const LOOP: [(VarId, &str, f64); 4] =
-    [(VarId::Control, "control", 2.0), (VarId::Delay, "delay", 1.0), (VarId::DpwmBits, "dpwm_bits", 10.0), (VarId::AdcNoise, "adc_noise", 2e-3)];
+const LOOP: [(VarId, &str, f64); 4] = [(VarId::Control, "control", 2.0), (VarId::Delay, "delay", 1.0), (VarId::DpwmBits, "dpwm_bits", 10.0), (VarId::AdcNoise, "adc_noise", 2e-3)];
 
 fn arg(name: &str) -> Option<String> {
     let args: Vec<String> = std::env::args().collect();

@@ -34,11 +34,7 @@ fn median_fit_seconds(structure: Structure, data: &DataSet) -> (f64, f64) {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let python = args
-        .iter()
-        .position(|a| a == "--python")
-        .and_then(|i| args.get(i + 1).map(PathBuf::from))
-        .unwrap_or_else(|| root.join(".venv/bin/python"));
+    let python = args.iter().position(|a| a == "--python").and_then(|i| args.get(i + 1).map(PathBuf::from)).unwrap_or_else(|| root.join(".venv/bin/python"));
     let truth = Params { cl: 2.2e-6, ..Params::default() };
     let exp = Experiment { samples: 3001, noise_vout: 2e-3, ..Experiment::default() };
     let averaged = run(&mut ModelPlant::new(truth, Mode::Averaged), &exp).expect("run");
@@ -51,10 +47,7 @@ fn main() {
     averaged.write_csv(&csv).expect("write csv");
     let script = root.join("crates/estimator/benches/scipy_baseline.py");
     type Baseline<'a> = (&'a str, Option<(f64, f64, f64)>);
-    let baselines: Vec<Baseline> = ["lfilter", "dlsim"]
-        .into_iter()
-        .map(|sim| (sim, scipy(&python, &script, &csv, sim)))
-        .collect();
+    let baselines: Vec<Baseline> = ["lfilter", "dlsim"].into_iter().map(|sim| (sim, scipy(&python, &script, &csv, sim))).collect();
     let fastest = baselines.iter().filter_map(|(_, b)| b.map(|b| b.0)).fold(f64::INFINITY, f64::min);
     println!("Cl identification from 3001 samples (true Cl = 2.2 µF, σ = 2 mV on vout); median of {REPEAT} fits\n");
     println!("| fit | model | wall time | Cl [µF] | vs scipy |");
@@ -64,12 +57,7 @@ fn main() {
     println!("| buckid PEM (Rust) | sampled-data PWM (switched data) | {:.2} ms | {:.4} | {} |", t_pwm * 1e3, cl_pwm * 1e6, ratio(t_pwm));
     for (sim, b) in baselines {
         if let Some((s, cl, nfev)) = b {
-            println!(
-                "| scipy least_squares + {sim} (best of 5) | averaged | {:.2} ms | {:.4} | buckid averaged is {:.0}× faster ({nfev} evaluations) |",
-                s * 1e3,
-                cl * 1e6,
-                s / t_avg
-            );
+            println!("| scipy least_squares + {sim} (best of 5) | averaged | {:.2} ms | {:.4} | buckid averaged is {:.0}× faster ({nfev} evaluations) |", s * 1e3, cl * 1e6, s / t_avg);
         }
     }
 }
@@ -79,9 +67,7 @@ fn scipy(python: &std::path::Path, script: &std::path::Path, csv: &std::path::Pa
     match Command::new(python).arg(script).arg(csv).args(["--simulator", simulator]).output() {
         Ok(out) if out.status.success() => {
             let text = String::from_utf8_lossy(&out.stdout);
-            let field = |k: &str| -> f64 {
-                text.split(&format!("\"{k}\": ")).nth(1).and_then(|r| r.split([',', '}']).next()).and_then(|v| v.trim().parse().ok()).unwrap_or(f64::NAN)
-            };
+            let field = |k: &str| -> f64 { text.split(&format!("\"{k}\": ")).nth(1).and_then(|r| r.split([',', '}']).next()).and_then(|v| v.trim().parse().ok()).unwrap_or(f64::NAN) };
             Some((field("seconds"), field("cl"), field("nfev")))
         }
         Ok(out) => {

@@ -55,10 +55,7 @@ impl DataSet {
 
     /// A metadata value parsed as a number.
     pub fn meta_f64(&self, key: &str) -> Result<Option<f64>, EstimatorError> {
-        self.meta
-            .get(key)
-            .map(|v| v.trim().parse::<f64>().map_err(|_| data_err(format!("metadata `{key} = {v}` is not a number"))))
-            .transpose()
+        self.meta.get(key).map(|v| v.trim().parse::<f64>().map_err(|_| data_err(format!("metadata `{key} = {v}` is not a number")))).transpose()
     }
 
     /// Load resistance `rload` [Ω] from the metadata `# rload = R` (a `rload` column is folded
@@ -118,12 +115,7 @@ impl DataSet {
             return Err(data_err(format!("`time` spans {:e} … {:e} s: the sample period is not a finite number", self.time[0], self.time[n - 1])));
         }
         if let Some(i) = (1..n).find(|&i| ((self.time[i] - self.time[i - 1]) - dt).abs() > 1e-3 * dt) {
-            return Err(data_err(format!(
-                "`time` is not uniform: row {} follows row {} by {:e} s, the mean spacing is {dt:e} s",
-                i + 1,
-                i,
-                self.time[i] - self.time[i - 1]
-            )));
+            return Err(data_err(format!("`time` is not uniform: row {} follows row {} by {:e} s, the mean spacing is {dt:e} s", i + 1, i, self.time[i] - self.time[i - 1])));
         }
         Ok(())
     }
@@ -202,9 +194,7 @@ impl DataSet {
             for (c, idx) in wanted.iter().enumerate() {
                 let Some(idx) = idx else { continue };
                 let field = record.get(*idx).unwrap_or("");
-                let value: f64 = field.parse().map_err(|_| {
-                    data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c]))
-                })?;
+                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
                 if !value.is_finite() {
                     return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
                 }
@@ -262,8 +252,7 @@ impl DataSet {
         for (k, v) in &self.meta {
             out.push_str(&format!("# {k} = {v}\n"));
         }
-        let present: Vec<(&str, &Vec<f64>)> =
-            self.columns().into_iter().filter_map(|(n, c)| c.map(|c| (n, c))).collect();
+        let present: Vec<(&str, &Vec<f64>)> = self.columns().into_iter().filter_map(|(n, c)| c.map(|c| (n, c))).collect();
         out.push_str(&present.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(","));
         out.push('\n');
         for i in 0..self.len() {
@@ -284,10 +273,7 @@ fn decode(bytes: &[u8]) -> Result<&str, String> {
     std::str::from_utf8(bytes).map_err(|e| {
         let at = e.valid_up_to();
         let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
-        format!(
-            "line {line}: byte {at} (0x{:02x}) is not UTF-8; save the file as UTF-8 (Latin-1 `µ` or `°` are a common cause)",
-            bytes[at]
-        )
+        format!("line {line}: byte {at} (0x{:02x}) is not UTF-8; save the file as UTF-8 (Latin-1 `µ` or `°` are a common cause)", bytes[at])
     })
 }
 

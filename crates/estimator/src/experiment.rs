@@ -70,10 +70,7 @@ impl Prbs {
         // Levels are duties in open loop and duty dither (which may be negative) in closed loop.
         let in_range = |x: f64| (-1.0..=1.0).contains(&x);
         if !(in_range(self.low) && in_range(self.high)) || self.low == self.high {
-            return Err(EstimatorError::Config(format!(
-                "PRBS levels {} and {} must be distinct values in −1..1",
-                self.low, self.high
-            )));
+            return Err(EstimatorError::Config(format!("PRBS levels {} and {} must be distinct values in −1..1", self.low, self.high)));
         }
         if self.bit_periods == 0 {
             return Err(EstimatorError::Config("PRBS bit length must be at least one period".into()));

@@ -98,10 +98,7 @@ impl FmuPlant {
             }
         }
         let mut settings = Vec::new();
-        let defaults = opts
-            .defaults
-            .iter()
-            .filter(|(n, _)| fmu.variable(n).is_some() && !opts.set.iter().any(|(s, _)| s == n));
+        let defaults = opts.defaults.iter().filter(|(n, _)| fmu.variable(n).is_some() && !opts.set.iter().any(|(s, _)| s == n));
         for (name, value) in opts.set.iter().chain(defaults) {
             let var = fmu.resolve(name).map_err(plant_err)?;
             let value = Value::from_number(var.kind, *value).map_err(|e| EstimatorError::Config(format!("--set {name}={value}: {e}")))?;

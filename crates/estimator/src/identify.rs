@@ -92,15 +92,11 @@ pub fn identify(data: &DataSet, nominal: &Params, opts: &IdentifyOptions) -> Res
     let n = data.len();
     let n_est = ((n as f64) * (1.0 - opts.holdout)).round() as usize;
     if n_est < 50 || n - n_est < 20 {
-        return Err(EstimatorError::Data(format!(
-            "{n} samples are too few to estimate and validate (need ≥ 50 + 20)"
-        )));
+        return Err(EstimatorError::Data(format!("{n} samples are too few to estimate and validate (need ≥ 50 + 20)")));
     }
     let constant = |v: &[f64]| v[..n_est].iter().all(|x| *x == v[0]);
     if constant(&data.duty) && constant(&data.io) && constant(&data.vin) {
-        return Err(EstimatorError::Data(
-            "no excitation: duty, io and vin are constant over the estimation part, so the data cannot tell Cl (step the duty, e.g. a PRBS)".into(),
-        ));
+        return Err(EstimatorError::Data("no excitation: duty, io and vin are constant over the estimation part, so the data cannot tell Cl (step the duty, e.g. a PRBS)".into()));
     }
     let period = data.sample_period();
     let estimation = data.slice(0..n_est);
@@ -126,12 +122,9 @@ pub fn identify(data: &DataSet, nominal: &Params, opts: &IdentifyOptions) -> Res
             candidates.push(crate::simulated::fit(data, &start, &opts.free, n_est)?);
             continue;
         }
-        let outs: Vec<Signal> =
-            if structure == Structure::Reduced { vec![Signal::Vout] } else { outputs.clone() };
+        let outs: Vec<Signal> = if structure == Structure::Reduced { vec![Signal::Vout] } else { outputs.clone() };
         let model = Model::new(structure, opts.sampling, &outs, &opts.free, &estimation, period)?;
-        let guess = opts.cl_guess.map(|cl| {
-            opts.free.iter().map(|f| if *f == Free::Cl { cl } else { f.get(nominal) }).collect()
-        });
+        let guess = opts.cl_guess.map(|cl| opts.free.iter().map(|f| if *f == Free::Cl { cl } else { f.get(nominal) }).collect());
         let start = Instant::now();
         let fit = pem::fit(&model, nominal, &FitOptions { noise: opts.noise, guess, ..FitOptions::default() })?;
         let seconds = start.elapsed().as_secs_f64();

@@ -343,13 +343,7 @@ const FULL_A: &[Term] = &[
 ];
 const FULL_B: &[Term] = &[t(0, 0, 1.0, [-1, 0, 0, 0, 0]), t(2, 1, -1.0, [0, 0, 0, 0, -1])];
 /// Reduced model `[vc, vo]`, inputs `[il, io]`.
-const REDUCED_A: &[Term] = &[
-    t(0, 0, -1.0, [0, 0, -1, -1, 0]),
-    t(0, 1, 1.0, [0, 0, -1, -1, 0]),
-    t(1, 0, 1.0, [0, 0, 0, -1, -1]),
-    t(1, 1, -1.0, [0, 0, 0, -1, -1]),
-    tg(1, 1, -1.0, [0, 0, 0, 0, -1]),
-];
+const REDUCED_A: &[Term] = &[t(0, 0, -1.0, [0, 0, -1, -1, 0]), t(0, 1, 1.0, [0, 0, -1, -1, 0]), t(1, 0, 1.0, [0, 0, 0, -1, -1]), t(1, 1, -1.0, [0, 0, 0, -1, -1]), tg(1, 1, -1.0, [0, 0, 0, 0, -1])];
 const REDUCED_B: &[Term] = &[t(1, 0, 1.0, [0, 0, 0, 0, -1]), t(1, 1, -1.0, [0, 0, 0, 0, -1])];
 
 fn values(p: &Params) -> [f64; 5] {
@@ -457,19 +451,10 @@ pub const MAX_PWM_LEVELS: usize = 4096;
 
 impl Model {
     /// Binds `structure` to `data`. Errors name a missing column or an unusable duty sequence.
-    pub fn new(
-        structure: Structure,
-        sampling: Sampling,
-        outputs: &[Signal],
-        free: &[Free],
-        data: &DataSet,
-        period: f64,
-    ) -> Result<Self, EstimatorError> {
+    pub fn new(structure: Structure, sampling: Sampling, outputs: &[Signal], free: &[Free], data: &DataSet, period: f64) -> Result<Self, EstimatorError> {
         data.validate()?;
         if structure == Structure::Simulated {
-            return Err(EstimatorError::Config(
-                "the simulated structure has no linear predictor: fit it with `estimator::simulated::fit`".into(),
-            ));
+            return Err(EstimatorError::Config("the simulated structure has no linear predictor: fit it with `estimator::simulated::fit`".into()));
         }
         if outputs.is_empty() {
             return Err(EstimatorError::Config("at least one output is needed".into()));
@@ -486,11 +471,7 @@ impl Model {
         if structure != Structure::Exact
             && let Some(f) = free.iter().find(|f| f.exact_only())
         {
-            return Err(EstimatorError::Config(format!(
-                "the free parameter `{}` is modelled by the exact structure only, not by `{}`",
-                f.name(),
-                structure.name()
-            )));
+            return Err(EstimatorError::Config(format!("the free parameter `{}` is modelled by the exact structure only, not by `{}`", f.name(), structure.name())));
         }
         if structure == Structure::Exact && sampling != Sampling::PeriodStart {
             return Err(EstimatorError::Config("the exact model takes period-start samples only".into()));
@@ -542,9 +523,7 @@ impl Model {
             Structure::Simulated => unreachable!("rejected above"),
             Structure::Reduced => {
                 let (Some(il), Some(avg)) = (data.il.as_ref(), data.il_avg.as_ref()) else {
-                    return Err(EstimatorError::Data(
-                        "the reduced model needs the measured `il` (period start) and `il_avg` (period average) columns".into(),
-                    ));
+                    return Err(EstimatorError::Data("the reduced model needs the measured `il` (period start) and `il_avg` (period average) columns".into()));
                 };
                 // [il at the period start, its period average, il at the period end, io]; the
                 // last sample, which has no period end, was dropped above.
@@ -559,12 +538,7 @@ impl Model {
     /// The first `n` samples only (e.g. to rank start values cheaply).
     pub fn prefix(&self, n: usize) -> Model {
         let n = n.min(self.len());
-        Model {
-            level_of: self.level_of[..n].to_vec(),
-            u: self.u[..n * self.nu()].to_vec(),
-            y: self.y[..n * self.ny()].to_vec(),
-            ..self.clone()
-        }
+        Model { level_of: self.level_of[..n].to_vec(), u: self.u[..n * self.nu()].to_vec(), y: self.y[..n * self.ny()].to_vec(), ..self.clone() }
     }
 
     /// Number of states.
@@ -670,9 +644,7 @@ impl Model {
         let (h, dd) = match self.sampling {
             Sampling::PeriodStart if value => (sel.clone(), DMatrix::zeros(self.ny(), 4)),
             Sampling::PeriodStart => (DMatrix::zeros(self.ny(), 2), DMatrix::zeros(self.ny(), 4)),
-            Sampling::PeriodAverage => {
-                (sel * d.ia.view((0, 0), (2, 2)) / t, sel * to_inputs(&d.ia, &d.ib) / t)
-            }
+            Sampling::PeriodAverage => (sel * d.ia.view((0, 0), (2, 2)) / t, sel * to_inputs(&d.ia, &d.ib) / t),
         };
         Maps::from(&f, &g, &h, &dd)
     }
@@ -829,12 +801,7 @@ impl Model {
         q.fs = 1.0 / self.period;
         // One converter for all simulations: its cache of piece transitions is reused.
         let mut conv = Converter::new(q, Mode::Switched);
-        self.levels
-            .iter()
-            .map(|&duty| {
-                self.exact_level(&mut conv, duty).unwrap_or_else(|| Maps::nan(self.nx(), self.ny(), self.nu()))
-            })
-            .collect()
+        self.levels.iter().map(|&duty| self.exact_level(&mut conv, duty).unwrap_or_else(|| Maps::nan(self.nx(), self.ny(), self.nu()))).collect()
     }
 
     /// One level's maps: the period map linearized at its periodic orbit.

@@ -163,16 +163,7 @@ fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
 /// when `jacobian`, `JᵀJ` and `Jᵀr` of the weighted residuals. `sensitivities = false` skips
 /// the derivative columns of the circuit parameters (their maps may then be absent).
 #[allow(clippy::too_many_arguments)]
-fn evaluate(
-    model: &Model,
-    levels: &[Level],
-    lay: Layout,
-    p: &[f64],
-    weights: &[f64],
-    jacobian: bool,
-    sensitivities: bool,
-    record: Option<&mut Vec<f64>>,
-) -> Eval {
+fn evaluate(model: &Model, levels: &[Level], lay: Layout, p: &[f64], weights: &[f64], jacobian: bool, sensitivities: bool, record: Option<&mut Vec<f64>>) -> Eval {
     match (lay.nx, lay.ny, model.nu()) {
         (3, 1, 2) => evaluate_n::<3, 1, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
         (3, 2, 2) => evaluate_n::<3, 2, 2>(model, levels, lay, p, weights, jacobian, sensitivities, record),
@@ -201,10 +192,7 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
     let nf = lay.nf;
     let np = lay.np();
     let maps: Vec<Fixed<NX, NY, NU>> = levels.iter().map(|l| Fixed::from(&l.maps)).collect();
-    let derivs: Vec<Vec<Fixed<NX, NY, NU>>> = levels
-        .iter()
-        .map(|l| if sensitivities { l.derivs.iter().take(nf).map(Fixed::from).collect() } else { Vec::new() })
-        .collect();
+    let derivs: Vec<Vec<Fixed<NX, NY, NU>>> = levels.iter().map(|l| if sensitivities { l.derivs.iter().take(nf).map(Fixed::from).collect() } else { Vec::new() }).collect();
     let mut x = [0.0; NX];
     x.copy_from_slice(&p[nf..nf + NX]);
     let mut k_gain = [[0.0; NY]; NX];
@@ -293,12 +281,7 @@ fn evaluate_n<const NX: usize, const NY: usize, const NU: usize>(
             break;
         }
     }
-    let mut out = Eval {
-        cost: if cost.is_finite() { cost } else { f64::INFINITY },
-        sum_sq: sum_sq.to_vec(),
-        jtj: DMatrix::zeros(np, np),
-        jtr: DVector::zeros(np),
-    };
+    let mut out = Eval { cost: if cost.is_finite() { cost } else { f64::INFINITY }, sum_sq: sum_sq.to_vec(), jtj: DMatrix::zeros(np, np), jtr: DVector::zeros(np) };
     for a in 0..np {
         out.jtr[a] = jtr[a];
         for b in a..np {
@@ -461,9 +444,7 @@ pub fn fit(model: &Model, nominal: &Params, opts: &FitOptions) -> Result<Fit, Es
 
 /// Covariance `s²·(JᵀJ)⁻¹` of the unknowns from the information matrix `jtj`.
 pub(crate) fn covariance(jtj: DMatrix<f64>, s2: f64) -> Result<DMatrix<f64>, EstimatorError> {
-    jtj.cholesky()
-        .map(|c| c.inverse() * s2)
-        .ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))
+    jtj.cholesky().map(|c| c.inverse() * s2).ok_or_else(|| EstimatorError::Fit("the information matrix is singular: the parameters are not identifiable from this data".into()))
 }
 
 /// The estimates of `free` from their unknowns `logs` (log values, or logits below a ceiling:
@@ -474,12 +455,7 @@ pub(crate) fn log_estimates(free: &[Free], logs: &[f64], covariance: &DMatrix<f6
         .enumerate()
         .map(|(i, f)| {
             let sd = covariance[(i, i)].max(0.0).sqrt();
-            Estimate {
-                name: f.name(),
-                value: f.from_unknown(logs[i]),
-                ci95: (f.from_unknown(logs[i] - Z_975 * sd), f.from_unknown(logs[i] + Z_975 * sd)),
-                rel_std: sd * f.relative_slope(logs[i]),
-            }
+            Estimate { name: f.name(), value: f.from_unknown(logs[i]), ci95: (f.from_unknown(logs[i] - Z_975 * sd), f.from_unknown(logs[i] + Z_975 * sd)), rel_std: sd * f.relative_slope(logs[i]) }
         })
         .collect()
 }
@@ -501,14 +477,7 @@ fn solve_initial_state(model: &Model, levels: &[Level], lay: Layout, mut p: Vec<
 /// Levenberg–Marquardt with Marquardt's diagonal scaling. Stops when the Gauss–Newton
 /// step of every unknown is below 1e-4 of its own standard deviation (further iterations
 /// could not move the estimate by anything the data can resolve) or the criterion stalls.
-fn levenberg_marquardt(
-    model: &Model,
-    nominal: &Params,
-    lay: Layout,
-    mut p: Vec<f64>,
-    weights: &[f64],
-    max_iterations: usize,
-) -> Result<(Vec<f64>, usize, bool, Eval), EstimatorError> {
+fn levenberg_marquardt(model: &Model, nominal: &Params, lay: Layout, mut p: Vec<f64>, weights: &[f64], max_iterations: usize) -> Result<(Vec<f64>, usize, bool, Eval), EstimatorError> {
     let np = lay.np();
     let eval_at = |p: &[f64], jacobian: bool| {
         let levels = model.levels(&with_free(nominal, &model.free, &p[..lay.nf]), jacobian);
@@ -537,8 +506,7 @@ fn levenberg_marquardt(
         let step = chol.solve(&(-&cur.jtr));
         // Converged when no unknown moves by more than 1e-4 of its standard deviation.
         let s2 = cur.cost / dof;
-        let resolved = (0..np).all(|i| step[i].abs() <= 1e-4 * (s2 / cur.jtj[(i, i)].max(1e-300)).sqrt().max(0.0) * 1e2
-            || step[i] == 0.0);
+        let resolved = (0..np).all(|i| step[i].abs() <= 1e-4 * (s2 / cur.jtj[(i, i)].max(1e-300)).sqrt().max(0.0) * 1e2 || step[i] == 0.0);
         let tiny = (0..np).all(|i| step[i].powi(2) * cur.jtj[(i, i)] <= 1e-8 * s2.max(1e-300));
         if tiny || (resolved && lambda < 1e-2) {
             return Ok((p, it, true, cur));

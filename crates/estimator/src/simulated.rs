@@ -30,9 +30,9 @@ use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
+use crate::candidate::{Candidate, Traces, Validation};
 use crate::data::DataSet;
 use crate::error::EstimatorError;
-use crate::candidate::{Candidate, Traces, Validation};
 use crate::model::{Free, Structure};
 use crate::pem::{self, Fit};
 use crate::validate::{ResidualTests, fit_percent};
@@ -184,11 +184,7 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> 
             conv.step(period).map_err(plant)?;
         }
     }
-    if out.iter().chain(&il).all(|v| v.is_finite()) {
-        Ok((out, il))
-    } else {
-        Err(EstimatorError::Fit("the simulation left the finite range".into()))
-    }
+    if out.iter().chain(&il).all(|v| v.is_finite()) { Ok((out, il)) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
 }
 
 /// Circuit values with the free parameters set from the unknowns `[ln θ | start]` (a logit for a
@@ -336,11 +332,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
         return Err(EstimatorError::Config("at least one free parameter is needed".into()));
     }
     if n_est < BURN_IN + 50 || n_est >= data.len() {
-        return Err(EstimatorError::Data(format!(
-            "the simulated model needs ≥ {} estimation samples and some held out ({n_est} of {})",
-            BURN_IN + 50,
-            data.len()
-        )));
+        return Err(EstimatorError::Data(format!("the simulated model needs ≥ {} estimation samples and some held out ({n_est} of {})", BURN_IN + 50, data.len())));
     }
     // The unknowns `[ln θ | start]` of each start; the initial voltage starts at the first
     // measured sample, the rest at the DC point.
@@ -357,11 +349,13 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     if let (Some(ci), true) = (free.iter().position(|f| *f == Free::Cl), cl_grid) {
         tries = tries
             .into_iter()
-            .flat_map(|t| std::iter::once(t[ci]).chain(CL_GRID.iter().map(|k| (k * start.c).ln())).map(move |l| {
-                let mut u = t.clone();
-                u[ci] = l;
-                u
-            }))
+            .flat_map(|t| {
+                std::iter::once(t[ci]).chain(CL_GRID.iter().map(|k| (k * start.c).ln())).map(move |l| {
+                    let mut u = t.clone();
+                    u[ci] = l;
+                    u
+                })
+            })
             .collect();
     }
     // The sampling instant, where free and the data has il: pinned on both channels first,
@@ -455,18 +449,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
         residuals: ResidualTests::new(&residual, &data.duty[n_est..]),
         traces: Traces { time: data.time[n_est..].to_vec(), measured, simulated: simulated.clone(), predicted: simulated },
     };
-    let fit = Fit {
-        params,
-        estimates,
-        x0: from.unknowns().to_vec(),
-        gain: Vec::new(),
-        sigma: vec![s2.sqrt()],
-        cost: cost / s2.max(1e-300),
-        iterations,
-        converged,
-        n_params: np,
-        covariance,
-    };
+    let fit = Fit { params, estimates, x0: from.unknowns().to_vec(), gain: Vec::new(), sigma: vec![s2.sqrt()], cost: cost / s2.max(1e-300), iterations, converged, n_params: np, covariance };
     Ok(Candidate { structure: Structure::Simulated, fit, validation, seconds })
 }
 

@@ -92,15 +92,7 @@ impl ResidualTests {
         let ccf: Vec<f64> = (-(LAGS as isize)..=LAGS as isize).map(|l| correlation(e, u, l)).collect();
         let ljung_box = n * (n + 2.0) * acf.iter().enumerate().map(|(i, r)| r * r / (n - (i + 1) as f64)).sum::<f64>();
         let ccf_statistic = n * ccf[LAGS..].iter().map(|r| r * r).sum::<f64>();
-        Self {
-            acf,
-            ccf,
-            band99: Z_995 / n.sqrt(),
-            ljung_box,
-            ljung_box_limit: chi2_99(LAGS),
-            ccf_statistic,
-            ccf_limit: chi2_99(LAGS + 1),
-        }
+        Self { acf, ccf, band99: Z_995 / n.sqrt(), ljung_box, ljung_box_limit: chi2_99(LAGS), ccf_statistic, ccf_limit: chi2_99(LAGS + 1) }
     }
 
     /// The residual is white at the 99 % level.

@@ -83,14 +83,8 @@ fn closed_loop_output_error_is_biased_and_the_kalman_predictor_is_not() {
             for (id, v) in [(VarId::Control, 2.0), (VarId::Delay, 1.0), (VarId::DpwmBits, 10.0), (VarId::AdcNoise, 2e-3), (VarId::NoiseSeed, f64::from(r + 1))] {
                 c.set(id, v).unwrap();
             }
-            let exp = Experiment {
-                samples: 4500,
-                noise_load: 0.6,
-                noise_seed: u64::from(r),
-                record_applied_duty: true,
-                prbs: Prbs { low: -0.02, high: 0.02, ..Prbs::default() },
-                ..Experiment::default()
-            };
+            let exp =
+                Experiment { samples: 4500, noise_load: 0.6, noise_seed: u64::from(r), record_applied_duty: true, prbs: Prbs { low: -0.02, high: 0.02, ..Prbs::default() }, ..Experiment::default() };
             let data = run(&mut ModelPlant::closed_loop(c), &exp).unwrap();
             let opts = IdentifyOptions { structures: vec![Structure::Pwm], noise, ..IdentifyOptions::default() };
             let e = *identify(&data, &Params::default(), &opts).unwrap().best().fit.estimate("Cl").unwrap();

@@ -9,12 +9,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).ok_or("usage: open_fmu FILE")?;
     let t = Instant::now();
     match fmi2_import::Fmu::open(&path) {
-        Ok(fmu) => println!(
-            "opened {} ({} variables) in {:.2} s",
-            fmu.model_identifier(),
-            fmu.variables().len(),
-            t.elapsed().as_secs_f64()
-        ),
+        Ok(fmu) => println!("opened {} ({} variables) in {:.2} s", fmu.model_identifier(), fmu.variables().len(), t.elapsed().as_secs_f64()),
         Err(e) => println!("refused in {:.2} s: {e}", t.elapsed().as_secs_f64()),
     }
     Ok(())

@@ -69,10 +69,7 @@ pub(crate) fn extract(archive: &Path, dest: &Path, limits: Limits) -> Result<(),
         let n = io::copy(&mut (&mut entry).take(budget.saturating_add(1)), &mut file).map_err(io_err)?;
         written += n;
         if written > limits.bytes {
-            return Err(too_large(format!(
-                "it inflates to more than {} bytes although its directory declares {declared}",
-                limits.bytes
-            )));
+            return Err(too_large(format!("it inflates to more than {} bytes although its directory declares {declared}", limits.bytes)));
         }
     }
     Ok(())

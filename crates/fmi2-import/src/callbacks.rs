@@ -38,24 +38,11 @@ impl fmt::Display for LogMessage {
 pub type LogCallback = Box<dyn Fn(&LogMessage) + Send + Sync>;
 
 /// The non-variadic function the C shim calls with the formatted message.
-type Sink = unsafe extern "C" fn(
-    env: *mut c_void,
-    instance_name: *const c_char,
-    status: c_uint,
-    category: *const c_char,
-    message: *const c_char,
-);
+type Sink = unsafe extern "C" fn(env: *mut c_void, instance_name: *const c_char, status: c_uint, category: *const c_char, message: *const c_char);
 
 unsafe extern "C" {
     /// `csrc/logger.c`: formats with `vsnprintf` and calls the [`Sink`] found at `env`.
-    fn fmi2_import_logger(
-        env: fmi2ComponentEnvironment,
-        instance_name: fmi2String,
-        status: fmi2Status,
-        category: fmi2String,
-        message: fmi2String,
-        ...
-    );
+    fn fmi2_import_logger(env: fmi2ComponentEnvironment, instance_name: fmi2String, status: fmi2Status, category: fmi2String, message: fmi2String, ...);
     fn calloc(count: usize, size: usize) -> *mut c_void;
     fn free(ptr: *mut c_void);
 }
@@ -85,13 +72,7 @@ impl Environment {
     pub(crate) fn into_raw(callback: Option<LogCallback>) -> *mut Environment {
         let env = Box::into_raw(Box::new(Environment {
             sink,
-            functions: fmi2CallbackFunctions {
-                logger: Some(fmi2_import_logger),
-                allocateMemory: Some(calloc),
-                freeMemory: Some(free),
-                stepFinished: None,
-                componentEnvironment: ptr::null_mut(),
-            },
+            functions: fmi2CallbackFunctions { logger: Some(fmi2_import_logger), allocateMemory: Some(calloc), freeMemory: Some(free), stepFinished: None, componentEnvironment: ptr::null_mut() },
             log: Mutex::new(Log::default()),
             callback,
         }));
@@ -168,13 +149,7 @@ unsafe fn lossy(s: *const c_char) -> String {
 }
 
 /// Receives one formatted message from the C shim; never unwinds into C.
-unsafe extern "C" fn sink(
-    env: *mut c_void,
-    instance_name: *const c_char,
-    status: c_uint,
-    category: *const c_char,
-    message: *const c_char,
-) {
+unsafe extern "C" fn sink(env: *mut c_void, instance_name: *const c_char, status: c_uint, category: *const c_char, message: *const c_char) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: the C shim passes the `componentEnvironment` we gave the FMU, which is a live
         // `Environment` until after `fmi2FreeInstance`; it is only ever shared (`&`), and its
@@ -201,15 +176,7 @@ mod tests {
         unsafe {
             let functions = &*(*env).functions();
             let logger = functions.logger.unwrap();
-            logger(
-                functions.componentEnvironment,
-                c"inst".as_ptr(),
-                fmi2Status::fmi2Error,
-                c"logStatusError".as_ptr(),
-                format.as_ptr(),
-                arg.as_ptr(),
-                number,
-            );
+            logger(functions.componentEnvironment, c"inst".as_ptr(), fmi2Status::fmi2Error, c"logStatusError".as_ptr(), format.as_ptr(), arg.as_ptr(), number);
         }
     }
 
@@ -221,15 +188,7 @@ mod tests {
         let got = unsafe { (*env).take() };
         // SAFETY: freed once, no FMU holds it.
         unsafe { Environment::free(env) };
-        assert_eq!(
-            got,
-            vec![LogMessage {
-                instance_name: "inst".into(),
-                status: Status::Error,
-                category: "logStatusError".into(),
-                message: "duty = 3 is out of range".into(),
-            }]
-        );
+        assert_eq!(got, vec![LogMessage { instance_name: "inst".into(), status: Status::Error, category: "logStatusError".into(), message: "duty = 3 is out of range".into() }]);
     }
 
     #[test]

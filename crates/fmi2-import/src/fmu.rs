@@ -98,10 +98,7 @@ impl InstantiateOptions {
 
 impl fmt::Debug for InstantiateOptions {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("InstantiateOptions")
-            .field("debug_logging", &self.debug_logging)
-            .field("log_callback", &self.log_callback.is_some())
-            .finish()
+        f.debug_struct("InstantiateOptions").field("debug_logging", &self.debug_logging).field("log_callback", &self.log_callback.is_some()).finish()
     }
 }
 
@@ -132,10 +129,7 @@ impl Fmu {
     /// ```
     pub fn open(path: impl AsRef<Path>) -> Result<Self, ImportError> {
         let path = path.as_ref();
-        let temp = tempfile::Builder::new()
-            .prefix("fmi2-import-")
-            .tempdir()
-            .map_err(|source| ImportError::Io { path: std::env::temp_dir(), source })?;
+        let temp = tempfile::Builder::new().prefix("fmi2-import-").tempdir().map_err(|source| ImportError::Io { path: std::env::temp_dir(), source })?;
         archive::extract(path, temp.path(), Limits::default())?;
         let root = temp.path().to_path_buf();
         Self::read(root, Some(temp), &path.join("modelDescription.xml"))
@@ -191,10 +185,7 @@ impl Fmu {
             return Err(ImportError::BadModelIdentifier { path: shown.to_path_buf(), identifier: id.to_owned() });
         }
         if description.fmi_version != "2.0" {
-            return Err(ImportError::UnsupportedFmiVersion {
-                path: shown.to_path_buf(),
-                found: description.fmi_version.clone(),
-            });
+            return Err(ImportError::UnsupportedFmiVersion { path: shown.to_path_buf(), found: description.fmi_version.clone() });
         }
         let Some(co_simulation) = description.co_simulation.clone() else {
             return Err(ImportError::NotCoSimulation { path: shown.to_path_buf() });
@@ -299,8 +290,7 @@ impl Fmu {
     pub(crate) fn claim_instance(&self) -> Result<InstanceSlot, ImportError> {
         let live = &self.folder.live_instances;
         if self.co_simulation.can_be_instantiated_only_once_per_process == Some(true) {
-            live.compare_exchange(0, 1, Ordering::SeqCst, Ordering::SeqCst)
-                .map_err(|_| ImportError::OnlyOncePerProcess)?;
+            live.compare_exchange(0, 1, Ordering::SeqCst, Ordering::SeqCst).map_err(|_| ImportError::OnlyOncePerProcess)?;
         } else {
             live.fetch_add(1, Ordering::SeqCst);
         }

@@ -70,17 +70,8 @@ impl Instance {
         // SAFETY: every string is NUL-terminated and outlives the call; the callback struct
         // lives inside `env`, which stays at its address until after `fmi2FreeInstance`
         // (or until just below, when instantiation fails).
-        let component = unsafe {
-            (library.functions.instantiate)(
-                name.as_ptr(),
-                fmi2Type::fmi2CoSimulation,
-                guid.as_ptr(),
-                uri.as_ptr(),
-                (*env).functions(),
-                boolean(false),
-                boolean(options.debug_logging),
-            )
-        };
+        let component =
+            unsafe { (library.functions.instantiate)(name.as_ptr(), fmi2Type::fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), (*env).functions(), boolean(false), boolean(options.debug_logging)) };
         if component.is_null() {
             // SAFETY: `env` is live; the FMU returned no instance, so it keeps no use of it.
             let log = unsafe { (*env).take() };
@@ -106,11 +97,7 @@ impl Instance {
     }
 
     /// The one place a raw call happens and its status becomes a `Result`.
-    fn call(
-        &mut self,
-        function: &'static str,
-        raw: impl FnOnce(&Functions, fmi2Component) -> fmi2Status,
-    ) -> Result<(), ImportError> {
+    fn call(&mut self, function: &'static str, raw: impl FnOnce(&Functions, fmi2Component) -> fmi2Status) -> Result<(), ImportError> {
         if self.fatal {
             return Err(ImportError::Unusable { function });
         }
@@ -149,10 +136,7 @@ impl Instance {
         let Some(set) = self.library.functions.set_debug_logging else {
             return Err(ImportError::Unsupported { function: F, reason: "the binary does not export it" });
         };
-        let owned = categories
-            .iter()
-            .map(|c| CString::new(*c).map_err(|_| ImportError::NulByte { what: "log category", value: (*c).to_owned() }))
-            .collect::<Result<Vec<_>, _>>()?;
+        let owned = categories.iter().map(|c| CString::new(*c).map_err(|_| ImportError::NulByte { what: "log category", value: (*c).to_owned() })).collect::<Result<Vec<_>, _>>()?;
         let ptrs: Vec<_> = owned.iter().map(|c| c.as_ptr()).collect();
         // SAFETY: `ptrs` holds `ptrs.len()` NUL-terminated strings that outlive the call.
         self.call(F, |_, c| unsafe { set(c, boolean(on), ptrs.len(), ptrs.as_ptr()) })
@@ -162,9 +146,7 @@ impl Instance {
     pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Result<(), ImportError> {
         let (defined, stop) = stop.map_or((false, 0.0), |s| (true, s));
         // SAFETY: a live component and plain values.
-        self.call("fmi2SetupExperiment", |f, c| unsafe {
-            (f.setup_experiment)(c, boolean(false), 0.0, start, boolean(defined), stop)
-        })
+        self.call("fmi2SetupExperiment", |f, c| unsafe { (f.setup_experiment)(c, boolean(false), 0.0, start, boolean(defined), stop) })
     }
 
     /// `fmi2EnterInitializationMode`.
@@ -274,10 +256,7 @@ impl Instance {
         let Some(set) = self.library.functions.set_string else {
             return Err(ImportError::Unsupported { function: F, reason: "the binary does not export it" });
         };
-        let owned = values
-            .iter()
-            .map(|v| CString::new(*v).map_err(|_| ImportError::NulByte { what: "string value", value: (*v).to_owned() }))
-            .collect::<Result<Vec<_>, _>>()?;
+        let owned = values.iter().map(|v| CString::new(*v).map_err(|_| ImportError::NulByte { what: "string value", value: (*v).to_owned() })).collect::<Result<Vec<_>, _>>()?;
         let ptrs: Vec<fmi2_sys::fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
         // SAFETY: `ptrs` holds `refs.len()` NUL-terminated strings that outlive the call.
         self.call(F, |_, c| unsafe { set(c, refs.as_ptr(), refs.len(), ptrs.as_ptr()) })
@@ -315,20 +294,13 @@ impl Instance {
 
     fn state_function<T>(&self, function: &'static str, f: Option<T>) -> Result<T, ImportError> {
         if !self.can_get_and_set_state {
-            return Err(ImportError::Unsupported {
-                function,
-                reason: "the model description does not declare canGetAndSetFMUstate=\"true\"",
-            });
+            return Err(ImportError::Unsupported { function, reason: "the model description does not declare canGetAndSetFMUstate=\"true\"" });
         }
         f.ok_or(ImportError::Unsupported { function, reason: "the binary does not export it" })
     }
 
     fn owned_state(&self, function: &'static str, state: &FmuState) -> Result<(), ImportError> {
-        if ptr::eq(state.owner, self.env) && self.states.contains(&state.ptr) {
-            Ok(())
-        } else {
-            Err(ImportError::ForeignState { function })
-        }
+        if ptr::eq(state.owner, self.env) && self.states.contains(&state.ptr) { Ok(()) } else { Err(ImportError::ForeignState { function }) }
     }
 
     /// `fmi2GetFMUstate`: a snapshot of the whole instance state.

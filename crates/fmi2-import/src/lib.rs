@@ -327,12 +327,7 @@ mod tests {
 
     #[test]
     fn call_error_lists_the_log() {
-        let msg = LogMessage {
-            instance_name: "a".into(),
-            status: Status::Error,
-            category: "logStatusError".into(),
-            message: "duty = 1.5 is out of range".into(),
-        };
+        let msg = LogMessage { instance_name: "a".into(), status: Status::Error, category: "logStatusError".into(), message: "duty = 1.5 is out of range".into() };
         let e = ImportError::Call { function: "fmi2SetReal", status: Status::Error, log: vec![msg] };
         let text = e.to_string();
         assert!(text.starts_with("fmi2SetReal returned fmi2Error; the FMU logged:"), "{text}");

@@ -101,16 +101,10 @@ impl Library {
         }
         // SAFETY: loading runs the binary's initialisers, which an FMU keeps side-effect free
         // apart from its own globals; this is the trust every FMU importer extends.
-        let lib = unsafe { UnixLibrary::open(Some(path), RTLD_NOW | RTLD_LOCAL) }
-            .map_err(|source| ImportError::Load { path: path.to_path_buf(), source })?;
+        let lib = unsafe { UnixLibrary::open(Some(path), RTLD_NOW | RTLD_LOCAL) }.map_err(|source| ImportError::Load { path: path.to_path_buf(), source })?;
         let lib = libloading::Library::from(lib);
         let functions = Functions::resolve(&lib, path)?;
-        let incompatible = |function, found: String, expected| ImportError::Incompatible {
-            path: path.to_path_buf(),
-            function,
-            found,
-            expected,
-        };
+        let incompatible = |function, found: String, expected| ImportError::Incompatible { path: path.to_path_buf(), function, found, expected };
         // SAFETY: `fmi2GetVersion` takes no arguments and returns a static string (or null).
         let version = unsafe { returned_str((functions.get_version)()) };
         if version != "2.0" {
@@ -177,18 +171,11 @@ mod tests {
     #[test]
     fn a_non_fmu_library_names_the_first_missing_function() {
         // libm is on every glibc system; it exports no fmi2 function.
-        let Some(libm) = ["/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6", "/lib64/libm.so.6"]
-            .into_iter()
-            .map(Path::new)
-            .find(|p| p.is_file())
-        else {
+        let Some(libm) = ["/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6", "/lib64/libm.so.6"].into_iter().map(Path::new).find(|p| p.is_file()) else {
             return;
         };
         let err = Library::load(libm, false).err().unwrap();
-        assert!(
-            matches!(err, ImportError::MissingSymbol { symbol: "fmi2GetTypesPlatform", .. }),
-            "{err}"
-        );
+        assert!(matches!(err, ImportError::MissingSymbol { symbol: "fmi2GetTypesPlatform", .. }), "{err}");
     }
 
     #[test]

@@ -18,8 +18,7 @@ pub(crate) fn is_pythonfmu(root: &Path) -> bool {
 }
 
 /// Prints `LIBDIR`, `INSTSONAME` and `LDLIBRARY`, one a line.
-const SYSCONFIG: &str =
-    "import sysconfig as s\nfor k in ('LIBDIR', 'INSTSONAME', 'LDLIBRARY'): print(s.get_config_var(k) or '')";
+const SYSCONFIG: &str = "import sysconfig as s\nfor k in ('LIBDIR', 'INSTSONAME', 'LDLIBRARY'): print(s.get_config_var(k) or '')";
 
 /// Where libpython may be, best first: [`LIBPYTHON_ENV`] alone when set; otherwise what the
 /// `python3` on `PATH` reports, then well-known sonames for the dynamic loader to search.
@@ -75,11 +74,7 @@ mod tests {
     #[test]
     fn sysconfig_output_gives_full_paths_then_sonames() {
         let got = parse_sysconfig("/opt/py/lib\nlibpython3.11.so.1.0\nlibpython3.11.so\n");
-        assert_eq!(
-            got,
-            ["/opt/py/lib/libpython3.11.so.1.0", "libpython3.11.so.1.0", "/opt/py/lib/libpython3.11.so", "libpython3.11.so"]
-                .map(PathBuf::from)
-        );
+        assert_eq!(got, ["/opt/py/lib/libpython3.11.so.1.0", "libpython3.11.so.1.0", "/opt/py/lib/libpython3.11.so", "libpython3.11.so"].map(PathBuf::from));
         // A static-only build has nothing to load.
         assert!(parse_sysconfig("/usr/lib\n\nlibpython3.11.a\n").is_empty());
         assert!(parse_sysconfig("").is_empty());

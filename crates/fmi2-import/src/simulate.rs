@@ -67,9 +67,7 @@ impl Experiment {
         }
         let steps = ((stop - start) / step).ceil();
         if steps > MAX_ROWS as f64 {
-            return Err(error(format!(
-                "{steps:.0} steps of {step} s from {start} to {stop} s exceed the limit of {MAX_ROWS} rows; take a larger step"
-            )));
+            return Err(error(format!("{steps:.0} steps of {step} s from {start} to {stop} s exceed the limit of {MAX_ROWS} rows; take a larger step")));
         }
         Ok(())
     }
@@ -127,12 +125,7 @@ impl Inputs {
                 return Err(error(format!("input row {}: time {t} is not a finite number", i + 1)));
             }
             if i > 0 && t <= times[i - 1] {
-                return Err(error(format!(
-                    "input row {}: time {t} does not increase (row {} has {}); each row holds until the next, so times must strictly increase",
-                    i + 1,
-                    i,
-                    times[i - 1]
-                )));
+                return Err(error(format!("input row {}: time {t} does not increase (row {} has {}); each row holds until the next, so times must strictly increase", i + 1, i, times[i - 1])));
             }
         }
         for (i, row) in rows.iter().enumerate() {
@@ -141,10 +134,7 @@ impl Inputs {
             }
             for (v, x) in variables.iter().zip(row) {
                 if !v.accepts(x) {
-                    return Err(ImportError::BadValue {
-                        name: v.name.clone(),
-                        reason: format!("input row {}: a {:?} value for a {:?} variable", i + 1, x.kind(), v.kind),
-                    });
+                    return Err(ImportError::BadValue { name: v.name.clone(), reason: format!("input row {}: a {:?} value for a {:?} variable", i + 1, x.kind(), v.kind) });
                 }
                 if let Value::Real(r) = x
                     && !r.is_finite()
@@ -196,13 +186,7 @@ pub struct Recording {
 /// effect when it starts), and its last step ends at `stop`. An FMU that cannot stops at the
 /// last whole step (noted). A step the FMU discards because it terminated ends the run at
 /// the time it reached (recorded, noted), as in fmpy.
-pub fn simulate(
-    fmu: &Fmu,
-    exp: &Experiment,
-    start_values: &[(Variable, Value)],
-    inputs: Option<&Inputs>,
-    record: &[Variable],
-) -> Result<Recording, ImportError> {
+pub fn simulate(fmu: &Fmu, exp: &Experiment, start_values: &[(Variable, Value)], inputs: Option<&Inputs>, record: &[Variable]) -> Result<Recording, ImportError> {
     exp.validate()?;
     if let Some(v) = record.iter().find(|v| v.name == "time") {
         return Err(error(format!("`{}` cannot be recorded: the first column is the time already", v.name)));
@@ -236,10 +220,7 @@ pub fn simulate(
         }
         if next > exp.stop && !isclose(next, exp.stop) {
             if !variable_step {
-                rec.notes.push(format!(
-                    "stopped at {time} s, not {} s: the FMU cannot shorten its last step (canHandleVariableCommunicationStepSize is not true)",
-                    exp.stop
-                ));
+                rec.notes.push(format!("stopped at {time} s, not {} s: the FMU cannot shorten its last step (canHandleVariableCommunicationStepSize is not true)", exp.stop));
                 break;
             }
             next = exp.stop;

@@ -108,19 +108,12 @@ pub struct Variable {
 
 impl Variable {
     fn of(v: &ScalarVariable) -> Self {
-        Self {
-            name: v.name.clone(),
-            value_reference: v.value_reference,
-            kind: VarKind::from(&v.ty),
-            causality: v.causality,
-            variability: v.variability,
-        }
+        Self { name: v.name.clone(), value_reference: v.value_reference, kind: VarKind::from(&v.ty), causality: v.causality, variability: v.variability }
     }
 
     /// Whether a master may set it between steps: an input or a tunable parameter.
     pub fn settable_while_stepping(&self) -> bool {
-        self.causality == Causality::Input
-            || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
+        self.causality == Causality::Input || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
     }
 
     pub(crate) fn accepts(&self, value: &Value) -> bool {
@@ -144,10 +137,7 @@ impl Instance {
     /// Sets `var` to `value` with the setter of its type; errors name the variable.
     pub fn set_value(&mut self, var: &Variable, value: &Value) -> Result<(), ImportError> {
         if !var.accepts(value) {
-            return Err(ImportError::BadValue {
-                name: var.name.clone(),
-                reason: format!("a {:?} value for a {:?} variable", value.kind(), var.kind),
-            });
+            return Err(ImportError::BadValue { name: var.name.clone(), reason: format!("a {:?} value for a {:?} variable", value.kind(), var.kind) });
         }
         let vr = [var.value_reference];
         let result = match value {
@@ -162,9 +152,7 @@ impl Instance {
     /// The values of `vars`, in their order: one get call per type present.
     pub fn get_values(&mut self, vars: &[Variable]) -> Result<Vec<Value>, ImportError> {
         let mut out = vec![Value::Real(f64::NAN); vars.len()];
-        let of = |kinds: &[VarKind]| -> (Vec<usize>, Vec<u32>) {
-            vars.iter().enumerate().filter(|(_, v)| kinds.contains(&v.kind)).map(|(i, v)| (i, v.value_reference)).unzip()
-        };
+        let of = |kinds: &[VarKind]| -> (Vec<usize>, Vec<u32>) { vars.iter().enumerate().filter(|(_, v)| kinds.contains(&v.kind)).map(|(i, v)| (i, v.value_reference)).unzip() };
         let (idx, vrs) = of(&[VarKind::Real]);
         if !idx.is_empty() {
             let mut x = vec![0.0; vrs.len()];

@@ -105,10 +105,7 @@ fn a_declared_zip_bomb_is_refused_before_extraction() {
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("bomb.fmu");
     let mut zip = zip::ZipWriter::new(File::create(&path).unwrap());
-    let opts = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated)
-        .compression_level(Some(9))
-        .large_file(true);
+    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated).compression_level(Some(9)).large_file(true);
     zip.start_file("modelDescription.xml", opts).unwrap();
     zip.write_all(MINI.as_bytes()).unwrap();
     zip.start_file("resources/zeros.bin", opts).unwrap();

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use anyhow::Result;
-use fmu_fixture::root;
 use fmi2_import::{Fmu, ImportError, Instance, InstantiateOptions, Status, VarKind};
+use fmu_fixture::root;
 
 /// Switching period of the thesis converter [s].
 const T: f64 = 1.0 / 330e3;
@@ -253,11 +253,7 @@ fn missing_binary_names_the_expected_path() -> Result<()> {
 
 #[test]
 fn unrelated_library_names_the_missing_symbol() -> Result<()> {
-    let Some(libm) = ["/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6", "/lib64/libm.so.6"]
-        .into_iter()
-        .map(Path::new)
-        .find(|p| p.is_file())
-    else {
+    let Some(libm) = ["/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6", "/lib64/libm.so.6"].into_iter().map(Path::new).find(|p| p.is_file()) else {
         eprintln!("skipped: no system libm found");
         return Ok(());
     };

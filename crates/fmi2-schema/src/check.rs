@@ -1,7 +1,7 @@
 //! Consistency checks in the spirit of `fmpy validate`: every problem is collected.
 use std::collections::HashSet;
 
-use crate::{Causality, ModelDescription, VariableType, Variability};
+use crate::{Causality, ModelDescription, Variability, VariableType};
 
 impl ModelDescription {
     /// Every inconsistency found, as one sentence each; empty when the description is sound.
@@ -13,16 +13,8 @@ impl ModelDescription {
         if self.co_simulation.is_none() && self.model_exchange.is_none() {
             out.push("neither CoSimulation nor ModelExchange is declared".into());
         }
-        let units: HashSet<&str> = self
-            .unit_definitions
-            .iter()
-            .flat_map(|u| u.units.iter().map(|u| u.name.as_str()))
-            .collect();
-        let types: HashSet<&str> = self
-            .type_definitions
-            .iter()
-            .flat_map(|t| t.simple_types.iter().map(|t| t.name.as_str()))
-            .collect();
+        let units: HashSet<&str> = self.unit_definitions.iter().flat_map(|u| u.units.iter().map(|u| u.name.as_str())).collect();
+        let types: HashSet<&str> = self.type_definitions.iter().flat_map(|t| t.simple_types.iter().map(|t| t.name.as_str())).collect();
         let mut names = HashSet::new();
         let mut refs = HashSet::new();
         for v in self.variables() {
@@ -62,24 +54,16 @@ impl ModelDescription {
                     e.start.is_some()
                 }
             };
-            let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input)
-                || v.variability == Variability::Constant;
+            let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input) || v.variability == Variability::Constant;
             if needs_start && !has_start {
                 out.push(format!("{}: a {:?} variable needs a start value", v.name, v.causality));
             }
-            if v.causality == Causality::Output && v.variability != Variability::Constant && has_start
-                && v.initial.is_none()
-            {
+            if v.causality == Causality::Output && v.variability != Variability::Constant && has_start && v.initial.is_none() {
                 out.push(format!("{}: an output with default initial=calculated must not have a start value", v.name));
             }
         }
         let n = self.variables().len() as u32;
-        let outputs: Vec<u32> = self
-            .model_structure
-            .outputs
-            .iter()
-            .flat_map(|o| o.unknowns.iter().map(|u| u.index))
-            .collect();
+        let outputs: Vec<u32> = self.model_structure.outputs.iter().flat_map(|o| o.unknowns.iter().map(|u| u.index)).collect();
         for &i in &outputs {
             if i == 0 || i > n {
                 out.push(format!("ModelStructure/Outputs: index {i} is not a variable (1..={n})"));

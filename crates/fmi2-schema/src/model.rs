@@ -400,11 +400,7 @@ pub fn fmi_version_of(xml: &str) -> Option<String> {
 /// `fuzz/regressions/model_description/quick-xml-doctype-in-text-panic.xml`).
 fn guarded<T>(parse: impl FnOnce() -> Result<T, SchemaError> + std::panic::UnwindSafe) -> Result<T, SchemaError> {
     std::panic::catch_unwind(parse).unwrap_or_else(|panic| {
-        let what = panic
-            .downcast_ref::<&str>()
-            .map(|s| (*s).to_owned())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "panic".to_owned());
+        let what = panic.downcast_ref::<&str>().map(|s| (*s).to_owned()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".to_owned());
         Err(SchemaError::ParserPanic(what))
     })
 }

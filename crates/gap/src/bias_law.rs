@@ -51,14 +51,7 @@ impl BiasLawSpread {
         let alt = stack.fit(data, &[Params { cap_bias_law: law.other(), ..stack.params }], n_est, holdout).ok()?;
         let cl = alt.fit.estimate("Cl")?;
         let likelihood_ratio = (data.len() - n_est) as f64 * (rms(&residual(&alt)) / last.rms_after).ln() * 2.0;
-        let spread = Self {
-            law: law.name(),
-            other: law.other().name(),
-            other_cl: cl.value,
-            other_ci95: [cl.ci95.0, cl.ci95.1],
-            likelihood_ratio,
-            told_apart: likelihood_ratio.abs() > chi2_99(1),
-        };
+        let spread = Self { law: law.name(), other: law.other().name(), other_cl: cl.value, other_ci95: [cl.ci95.0, cl.ci95.1], likelihood_ratio, told_apart: likelihood_ratio.abs() > chi2_99(1) };
         Some((spread, alt))
     }
 

@@ -193,4 +193,3 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
     });
     vec![("param_drift", drift), ("switch_resistance", resistance), ("delay", delay)]
 }
-

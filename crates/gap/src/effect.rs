@@ -498,7 +498,6 @@ pub struct NotTested {
     pub reason: String,
 }
 
-
 pub(crate) struct Trial {
     pub cand: Candidate,
     pub params: BTreeMap<String, f64>,
@@ -735,13 +734,7 @@ impl std::fmt::Display for ClCheck {
         } else if self.high_pass_on_bound {
             write!(f, "widened: the high-pass refit runs Cl onto the edge of its range ({:.4} µF), so the model still misses something that moves Cl", self.high_pass * 1e6)
         } else {
-            write!(
-                f,
-                "widened: the high-pass refit gives {:.4} µF (Hausman {:.1} > {:.1}), so the model still misses something that moves Cl",
-                self.high_pass * 1e6,
-                self.hausman,
-                self.limit
-            )
+            write!(f, "widened: the high-pass refit gives {:.4} µF (Hausman {:.1} > {:.1}), so the model still misses something that moves Cl", self.high_pass * 1e6, self.hausman, self.limit)
         }
     }
 }
@@ -872,10 +865,13 @@ mod tests {
         let white = model_error_inflation(&e);
         assert!((1.0..1.4).contains(&white), "white: {white}");
         let mut x = 0.0;
-        let ar: Vec<f64> = e.iter().map(|v| {
-            x = 0.9 * x + v;
-            x
-        }).collect();
+        let ar: Vec<f64> = e
+            .iter()
+            .map(|v| {
+                x = 0.9 * x + v;
+                x
+            })
+            .collect();
         let coloured = model_error_inflation(&ar);
         assert!((8.0..19.0).contains(&coloured), "AR(1): {coloured}");
     }

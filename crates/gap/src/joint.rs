@@ -192,7 +192,13 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         // A parameter the data does not pin down beside the others: its effect goes first, one the
         // refit added before one the selection found (a diode's drop lost beside the slope
         // resistance and node capacitance added to it is the diode's, not theirs to take).
-        let lost: Vec<usize> = cand.fit.estimates.iter().filter(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1])).filter_map(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name))).collect();
+        let lost: Vec<usize> = cand
+            .fit
+            .estimates
+            .iter()
+            .filter(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1]))
+            .filter_map(|e| groups.iter().position(|g| g.frees.iter().any(|f| f.name() == e.name)))
+            .collect();
         if let Some(&k) = lost.iter().find(|&&k| !groups[k].selected).or(lost.first()) {
             (stack, cand) = refitted_without(data, nominal, &stack, [&groups[k]], n_est, holdout)?;
             dropped.push(groups.remove(k));
@@ -200,7 +206,8 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         }
         // Drifts within the tolerance of their nominal values are consistent with them: back to
         // nominal together, without a round of refits.
-        let tolerated: Vec<usize> = (0..groups.len()).filter(|&k| groups[k].name == "param_drift" && groups[k].frees.iter().all(|f| (f.get(&stack.params) / f.get(nominal) - 1.0).abs() <= baseline.tolerance)).collect();
+        let tolerated: Vec<usize> =
+            (0..groups.len()).filter(|&k| groups[k].name == "param_drift" && groups[k].frees.iter().all(|f| (f.get(&stack.params) / f.get(nominal) - 1.0).abs() <= baseline.tolerance)).collect();
         if !tolerated.is_empty() {
             (stack, cand) = refitted_without(data, nominal, &stack, tolerated.iter().map(|&k| &groups[k]), n_est, holdout)?;
             dropped.extend(tolerated.iter().rev().map(|&k| groups.remove(k)));

@@ -27,11 +27,11 @@ use serde::Serialize;
 
 pub use bias_law::BiasLawSpread;
 pub use effect::{ClCheck, ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
-pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 use options::nominal_options;
+pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
-pub use locate::{Band, FloorSource, Group, Where};
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
+pub use locate::{Band, FloorSource, Group, Where};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -122,7 +122,15 @@ impl Diagnosis {
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
         let (cl, ci95, check, skipped, widened, law, gross) = match self.selected.last() {
             Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by, e.cl.bias_law.as_ref(), e.cl.misses_by_floors),
-            None => (self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl_check.as_ref(), self.gap_before.cl_check_skipped.as_deref(), self.gap_before.cl_widened_by, None, self.gap_before.cl_misses_by_floors),
+            None => (
+                self.gap_before.cl,
+                self.gap_before.cl_ci95,
+                self.gap_before.cl_check.as_ref(),
+                self.gap_before.cl_check_skipped.as_deref(),
+                self.gap_before.cl_widened_by,
+                None,
+                self.gap_before.cl_misses_by_floors,
+            ),
         };
         let mut test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
         if let Some(law) = law {
@@ -136,7 +144,6 @@ impl Diagnosis {
         }
         (cl, ci95, test)
     }
-
 }
 
 /// The nominal circuit with the `cap_dc_bias` candidate's law anchored to the data (unless the
@@ -163,9 +170,7 @@ fn bias_reference(nominal: &Params, data: &DataSet) -> Params {
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
     let nominal = &bias_reference(nominal, data);
     let base = match identify(data, nominal, &nominal_options(opts)) {
-        Err(_) if opts.nominal == Nominal::Switched => {
-            identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?
-        }
+        Err(_) if opts.nominal == Nominal::Switched => identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?,
         fit => fit?,
     };
     let base = base.best().clone();
@@ -224,7 +229,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let mut tested = final_test(&selected);
     if let Some(failed) = tested.0.as_ref().filter(|c| !c.consistent)
-        && let Some(added) = select::for_cl(data, nominal, &mut selected, failed.hausman, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline, |f, cl, ci| check(f, cl, ci).ok())
+        && let Some(added) =
+            select::for_cl(data, nominal, &mut selected, failed.hausman, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline, |f, cl, ci| check(f, cl, ci).ok())
     {
         selection_ended = format!("{selection_ended}; then {added}");
         tested = final_test(&selected);
@@ -236,9 +242,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // residual, coloured: its Cl interval is widened by the square root of the residual's
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
     // its variance grows by).
-    let still_misses = |residual: &[f64], rms: f64| {
-        baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt())
-    };
+    let still_misses = |residual: &[f64], rms: f64| baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt());
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
     let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout).map(|(spread, alt)| {
@@ -298,17 +302,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let after = selected.last().map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
-        gap_before: Before {
-            model: base.structure.name(),
-            nrmse: baseline.nrmse,
-            rms: baseline.rms,
-            cl,
-            cl_ci95,
-            cl_check,
-            cl_check_skipped,
-            cl_widened_by,
-            cl_misses_by_floors,
-        },
+        gap_before: Before { model: base.structure.name(), nrmse: baseline.nrmse, rms: baseline.rms, cl, cl_ci95, cl_check, cl_check_skipped, cl_widened_by, cl_misses_by_floors },
         location,
         effects,
         not_tested,

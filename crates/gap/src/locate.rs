@@ -194,7 +194,13 @@ pub(crate) fn locate(data: &DataSet, n_est: usize, residual: &[f64], floor: Floo
     let summary = match (worst_band, worst(&operating_points), worst(&windows)) {
         (Some(b), Some(o), Some(w)) => format!(
             "largest miss in {:.3}–{:.3} kHz ({:+.1} dB over the floor), at {} ({:.1}× the floor), in {} ({:.1}×)",
-            b.from_hz / 1e3, b.to_hz / 1e3, b.db_over_floor, o.label, o.rms_over_floor, w.label, w.rms_over_floor
+            b.from_hz / 1e3,
+            b.to_hz / 1e3,
+            b.db_over_floor,
+            o.label,
+            o.rms_over_floor,
+            w.label,
+            w.rms_over_floor
         ),
         _ => "too few held-out samples to break the gap down".to_string(),
     };

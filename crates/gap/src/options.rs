@@ -76,11 +76,7 @@ pub fn nominal_for(data: &DataSet, nominal: &Params, holdout: f64) -> SwitchingE
     let sd = floor / gg.sqrt();
     // Not finite (no ripple to seek: a switched run equal to the averaged one) holds nothing.
     let holds = ripple_share.is_finite() && ripple_share - 0.5 > estimator::validate::Z_99 * sd;
-    if averaged_floors <= AVERAGED_FITS_FLOORS && !holds {
-        SwitchingEvidence { averaged_floors, ripple_share, nominal: Nominal::Averaged }
-    } else {
-        switched(averaged_floors, ripple_share)
-    }
+    if averaged_floors <= AVERAGED_FITS_FLOORS && !holds { SwitchingEvidence { averaged_floors, ripple_share, nominal: Nominal::Averaged } } else { switched(averaged_floors, ripple_share) }
 }
 
 /// The nominal model with Cl free.

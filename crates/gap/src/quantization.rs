@@ -12,7 +12,6 @@ use estimator::validate::nrmse;
 
 use crate::effect::{Baseline, ClMove, EffectFit, MIN_GAP_OVER_FLOOR, rms};
 
-
 /// Fraction of the readings that must lie on the lattice.
 const ON_LATTICE: f64 = 0.999;
 

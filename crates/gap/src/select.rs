@@ -19,12 +19,12 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
-use estimator::simulated::{Criterion, fit_from_exactly};
 use estimator::simulated::{BURN_IN, Start, simulate};
+use estimator::simulated::{Criterion, fit_from_exactly};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, ClCheck, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, calibrates_reading, il_calibration, Trial, delayed, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{Baseline, ClCheck, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, residual, rms, variance};
 
 /// Most effects in a sequence.
 pub(crate) const MAX_EFFECTS: usize = 4;
@@ -596,16 +596,7 @@ pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<Effe
 /// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
 /// in the data (so an averaged model may add it).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn forward(
-    data: &DataSet,
-    nominal: &Params,
-    first: &EffectFit,
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> (Vec<EffectFit>, String) {
+pub(crate) fn forward(data: &DataSet, nominal: &Params, first: &EffectFit, switched_nominal: bool, switched_data: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> (Vec<EffectFit>, String) {
     let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
     let mut selected = vec![first.clone()];
     let mut stack = match Stack::of(&[first], nominal, first.cl.estimate, switched_nominal) {

@@ -100,7 +100,6 @@ fn effects_are_found_behind_the_switching_ripple() {
     check(&data(c), &["switching_ripple", "delay"]);
 }
 
-
 /// Circuit effects behind the switching ripple: a load-capacitor ESR of 20 mΩ is found. A 1 nH
 /// ESL of the main capacitor branch is significant against the switched nominal, but the gap
 /// it leaves is within the sampling spread of the 2 mV noise: immaterial, so `none`.

@@ -60,13 +60,7 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
                 lines: vec![line("measured", GREY, Mark::Solid, tr.measured[..shown].to_vec()), line("simulated", BLUE, Mark::Solid, tr.simulated[..shown].to_vec())],
                 height: 150,
             },
-            Panel {
-                caption: "residual".into(),
-                y: Axis::linear("residual", "V"),
-                bands: vec![Band::symmetric(floor_name, FLOOR, floor, span)],
-                lines: residuals,
-                height: 150,
-            },
+            Panel { caption: "residual".into(), y: Axis::linear("residual", "V"), bands: vec![Band::symmetric(floor_name, FLOOR, floor, span)], lines: residuals, height: 150 },
         ],
     };
     let r = &v.residuals;
