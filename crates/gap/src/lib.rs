@@ -241,8 +241,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // A final model that still misses materially above the floor leaves its error in the
     // residual, coloured: its Cl interval is widened by the square root of the residual's
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
-    // its variance grows by).
-    let still_misses = |residual: &[f64], rms: f64| baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt());
+    // its variance grows by). One that misses grossly identifies no Cl at all. The interval
+    // so judged, the widening factor and the gross miss's multiple of the floor.
+    let judged_by_miss = |cl: f64, ci95: [f64; 2], residual: &[f64], rms: f64| {
+        let widened = baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt());
+        let gross = effect::gross_miss(rms, baseline.floor);
+        let ci95 = if gross.is_some() { [0.0, f64::INFINITY] } else { widened.map_or(ci95, |k| effect::widen(cl, ci95, k)) };
+        (ci95, widened, gross)
+    };
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
     let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout).map(|(spread, alt)| {
@@ -262,28 +268,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
             last.cl.bias_law = Some(spread);
         }
-        if let Some(k) = still_misses(&last.residual, last.rms_after) {
-            last.cl.ci95 = effect::widen(last.cl.estimate, last.cl.ci95, k);
-            last.cl.widened_by = Some(k);
-        }
-        if let Some(k) = effect::gross_miss(last.rms_after, baseline.floor) {
-            last.cl.ci95 = [0.0, f64::INFINITY];
-            last.cl.misses_by_floors = Some(k);
-        }
+        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, &last.residual, last.rms_after);
     } else {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(baseline.rms).unwrap_or(false);
             (cl, cl_ci95) = check.reported();
         }
         (cl_check, cl_check_skipped) = tested;
-        if let Some(k) = still_misses(&residual, baseline.rms) {
-            cl_ci95 = effect::widen(cl, cl_ci95, k);
-            cl_widened_by = Some(k);
-        }
-        if let Some(k) = effect::gross_miss(baseline.rms, baseline.floor) {
-            cl_ci95 = [0.0, f64::INFINITY];
-            cl_misses_by_floors = Some(k);
-        }
+        (cl_ci95, cl_widened_by, cl_misses_by_floors) = judged_by_miss(cl, cl_ci95, &residual, baseline.rms);
     }
     // The verdict's entry in the table carries the same test when it is the final model.
     if let [only] = selected.as_slice()

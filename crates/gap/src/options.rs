@@ -66,11 +66,10 @@ pub fn nominal_for(data: &DataSet, nominal: &Params, holdout: f64) -> SwitchingE
     let opts = IdentifyOptions { structures: vec![Structure::Averaged], free: vec![Free::Cl, Free::RL], holdout, ..IdentifyOptions::default() };
     let (Ok(id), Some((floor, _))) = (identify(data, nominal, &opts), estimator::noise::noise_floor_estimate(data)) else { return switched(f64::NAN, f64::NAN) };
     let avg = id.best();
-    let t = &avg.validation.traces;
-    let r: Vec<f64> = t.measured.iter().zip(&t.simulated).map(|(m, a)| m - a).collect();
-    let averaged_floors = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt() / floor;
+    let r = crate::effect::residual(avg);
+    let averaged_floors = crate::effect::rms(&r) / floor;
     let Ok(run) = estimator::simulated::simulate(&avg.fit.params, data, data.vout[0]) else { return switched(averaged_floors, f64::NAN) };
-    let g: Vec<f64> = run[data.len() - r.len()..].iter().zip(&t.simulated).map(|(s, a)| s - a).collect();
+    let g: Vec<f64> = run[data.len() - r.len()..].iter().zip(&avg.validation.traces.simulated).map(|(s, a)| s - a).collect();
     let gg: f64 = g.iter().map(|x| x * x).sum();
     let ripple_share = g.iter().zip(&r).map(|(a, b)| a * b).sum::<f64>() / gg;
     let sd = floor / gg.sqrt();
