@@ -299,6 +299,14 @@ pub fn by_name(name: &str) -> Option<&'static Variable> {
     VARIABLES.iter().find(|v| v.name == name)
 }
 
+/// The declared range `[min, max]` of the real variable `name`, `None` for any other.
+pub fn real_range(name: &str) -> Option<(f64, f64)> {
+    match by_name(name)?.ty {
+        Type::Real { min, max, .. } => Some((min, max)),
+        _ => None,
+    }
+}
+
 /// GUID derived from the table, so that an FMU binary rejects a modelDescription.xml that was
 /// generated from another table.
 pub fn guid() -> String {

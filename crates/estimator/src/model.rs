@@ -178,17 +178,14 @@ impl Free {
     /// Whether the value `v` lies inside the parameter's range in the variable table (a
     /// parameter without one admits any value): a fit's step that would leave it is refused.
     pub fn admits(self, v: f64) -> bool {
-        match buck_model::variables::by_name(self.name()).map(|v| v.ty) {
-            Some(buck_model::variables::Type::Real { min, max, .. }) => (min..=max).contains(&v),
-            _ => true,
-        }
+        buck_model::variables::real_range(self.name()).is_none_or(|(min, max)| (min..=max).contains(&v))
     }
 
     /// The ceiling of a fraction a fit must stay below (`cap_dc_bias`, `inductor_saturation`:
     /// the top of their range in the variable table), `None` for the other parameters.
     pub fn ceiling(self) -> Option<f64> {
-        match (self, buck_model::variables::by_name(self.name()).map(|v| v.ty)) {
-            (Free::CapDcBias | Free::InductorSaturation, Some(buck_model::variables::Type::Real { max, .. })) => Some(max),
+        match self {
+            Free::CapDcBias | Free::InductorSaturation => buck_model::variables::real_range(self.name()).map(|(_, max)| max),
             _ => None,
         }
     }

@@ -360,19 +360,11 @@ pub const MAX_DRIFT: f64 = 0.5;
 /// Relative distance from a range's bound within which a fit counts as ended on it.
 const AT_BOUND: f64 = 1e-3;
 
-/// The range of the variable `name` in the variable table.
-fn range(name: &str) -> Option<(f64, f64)> {
-    match buck_model::variables::by_name(name).map(|v| v.ty) {
-        Some(buck_model::variables::Type::Real { min, max, .. }) => Some((min, max)),
-        _ => None,
-    }
-}
-
 /// Whether `value` of the variable `name` lies on (or beyond) a bound of its range in the
 /// variable table (names without a range, or a lower bound of 0 that a log-scale fit cannot
 /// reach, never are).
 fn on_bound(name: &str, value: f64) -> bool {
-    range(name).is_some_and(|(min, max)| value >= max * (1.0 - AT_BOUND) || (min > 0.0 && value <= min * (1.0 + AT_BOUND)))
+    buck_model::variables::real_range(name).is_some_and(|(min, max)| value >= max * (1.0 - AT_BOUND) || (min > 0.0 && value <= min * (1.0 + AT_BOUND)))
 }
 
 /// Whether a fit's Cl ran onto a bound of its range: the estimate there ([`on_bound`]), or its
@@ -381,7 +373,7 @@ fn on_bound(name: &str, value: f64) -> bool {
 /// load capacitance at 1.1 nF against the range's 1 nF with an interval from zero to infinity,
 /// a nominal whose Cl ran up to 2.8 mF.
 fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
-    on_bound("Cl", estimate) || range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
+    on_bound("Cl", estimate) || buck_model::variables::real_range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
 }
 
 /// Smallest share of the gap above the floor, left by the model an effect extends, that the
