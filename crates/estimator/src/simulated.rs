@@ -468,9 +468,10 @@ struct Minimum {
 /// forward differences, steps capped at [`MAX_LOG_STEP`]).
 fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Result<Minimum, EstimatorError> {
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
+    let by_differences = |logs: &[f64], r: &DVector<f64>| jacobian(start, free, logs, estimation, criterion, il_weight, r).ok_or_else(not_simulable);
     let mut r = residuals(start, free, &logs, estimation, criterion, il_weight).ok_or_else(not_simulable)?;
     let mut cost = r.norm_squared();
-    let mut j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+    let mut j = by_differences(&logs, &r)?;
     let np = logs.len();
     let dof = (r.len() - np) as f64;
     let mut lambda = 1e-3;
@@ -512,7 +513,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                     lambda = (lambda / 10.0).max(1e-9);
                     accepted = Some((step, dr));
                     if free.iter().zip(&logs).any(|(f, u)| f.ceiling().is_some_and(|m| f.from_unknown(*u) >= m * (1.0 - AT_CEILING))) {
-                        let j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+                        let j = by_differences(&logs, &r)?;
                         return Ok(Minimum { logs, r, j, cost, iterations, converged: false });
                     }
                     break;
@@ -523,7 +524,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
         match accepted {
             // No descent along an updated Jacobian: take it afresh by differences and go on.
             None if stale > 0 => {
-                j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+                j = by_differences(&logs, &r)?;
                 (stale, lambda) = (0, 1e-3);
             }
             None => {
@@ -533,7 +534,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
             // A minimum, and every [`BROYDEN_STEPS`]-th step: the Jacobian by differences there
             // (the covariance is the minimum's own).
             Some(_) if converged || stale + 1 >= BROYDEN_STEPS => {
-                j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+                j = by_differences(&logs, &r)?;
                 stale = 0;
             }
             // Broyden's rank-one update, so that `j` maps the step to the residuals' change: one
@@ -547,7 +548,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
     }
     if stale > 0 {
         // Out of iterations on an updated Jacobian: the covariance needs the minimum's own.
-        j = jacobian(start, free, &logs, estimation, criterion, il_weight, &r).ok_or_else(not_simulable)?;
+        j = by_differences(&logs, &r)?;
     }
     Ok(Minimum { logs, r, j, cost, iterations, converged })
 }
