@@ -306,6 +306,7 @@ impl Params {
     /// node voltage then follows from KCL at the node ([`Params::vout_map`]), `Cl` takes
     /// `icl = il − io − G·vn − (vn − vc)/Rc` (without `esl`) or `il − ic − io − G·vn` (with it).
     /// Without the resistor the matrices are built exactly as before it existed.
+    #[rustfmt::skip] // the matrices row by row
     pub fn piece_lti(&self, r: f64, l: f64, cl: f64, blocked: bool) -> Lti {
         let Self { c, rc, load_esr: re, esl, .. } = *self;
         let mut lti = if self.rload > 0.0 {
@@ -316,32 +317,16 @@ impl Params {
                 4,
                 2,
                 &[
-                    (-r - re) / l,
-                    0.0,
-                    -1.0 / l,
-                    re / l, //
-                    0.0,
-                    0.0,
-                    0.0,
-                    1.0 / c, //
-                    1.0 / cl,
-                    0.0,
-                    0.0,
-                    -1.0 / cl, //
-                    re / esl,
-                    -1.0 / esl,
-                    1.0 / esl,
-                    (-rc - re) / esl,
+                    (-r - re) / l, 0.0, -1.0 / l, re / l, //
+                    0.0, 0.0, 0.0, 1.0 / c, //
+                    1.0 / cl, 0.0, 0.0, -1.0 / cl, //
+                    re / esl, -1.0 / esl, 1.0 / esl, (-rc - re) / esl,
                 ],
                 &[
-                    1.0 / l,
-                    re / l, //
-                    0.0,
-                    0.0, //
-                    0.0,
-                    -1.0 / cl, //
-                    0.0,
-                    -re / esl,
+                    1.0 / l, re / l, //
+                    0.0, 0.0, //
+                    0.0, -1.0 / cl, //
+                    0.0, -re / esl,
                 ],
             )
         } else {
@@ -352,23 +337,14 @@ impl Params {
                 3,
                 2,
                 &[
-                    (-r - s) / l,
-                    -(s / rc) / l,
-                    (-1.0 + s / rc) / l, //
-                    s / (rc * c),
-                    -1.0 / (rc * c) + s / (rc * rc * c),
-                    1.0 / (rc * c) - s / (rc * rc * c), //
-                    k / cl,
-                    k / (rc * cl),
-                    -k / (rc * cl),
+                    (-r - s) / l, -(s / rc) / l, (-1.0 + s / rc) / l, //
+                    s / (rc * c), -1.0 / (rc * c) + s / (rc * rc * c), 1.0 / (rc * c) - s / (rc * rc * c), //
+                    k / cl, k / (rc * cl), -k / (rc * cl),
                 ],
                 &[
-                    1.0 / l,
-                    s / l, //
-                    0.0,
-                    -s / (rc * c), //
-                    0.0,
-                    -k / cl,
+                    1.0 / l, s / l, //
+                    0.0, -s / (rc * c), //
+                    0.0, -k / cl,
                 ],
             )
         };
@@ -380,6 +356,7 @@ impl Params {
     }
 
     /// [`Params::piece_lti`] with a load resistor, from the node map `vn = cv·x + dv·io`.
+    #[rustfmt::skip] // the matrices row by row
     fn resistive_piece_lti(&self, r: f64, l: f64, cl: f64) -> Lti {
         let Self { c, rc, esl, .. } = *self;
         let g = self.load_conductance();
@@ -391,32 +368,16 @@ impl Params {
                 4,
                 2,
                 &[
-                    (-r - c0) / l,
-                    -c1 / l,
-                    -c2 / l,
-                    -c3 / l, //
-                    0.0,
-                    0.0,
-                    0.0,
-                    1.0 / c, //
-                    (1.0 - g * c0) / cl,
-                    -g * c1 / cl,
-                    -g * c2 / cl,
-                    (-1.0 - g * c3) / cl, //
-                    c0 / esl,
-                    (c1 - 1.0) / esl,
-                    c2 / esl,
-                    (c3 - rc) / esl,
+                    (-r - c0) / l, -c1 / l, -c2 / l, -c3 / l, //
+                    0.0, 0.0, 0.0, 1.0 / c, //
+                    (1.0 - g * c0) / cl, -g * c1 / cl, -g * c2 / cl, (-1.0 - g * c3) / cl, //
+                    c0 / esl, (c1 - 1.0) / esl, c2 / esl, (c3 - rc) / esl,
                 ],
                 &[
-                    1.0 / l,
-                    -dv / l, //
-                    0.0,
-                    0.0, //
-                    0.0,
-                    (-1.0 - g * dv) / cl, //
-                    0.0,
-                    dv / esl,
+                    1.0 / l, -dv / l, //
+                    0.0, 0.0, //
+                    0.0, (-1.0 - g * dv) / cl, //
+                    0.0, dv / esl,
                 ],
             )
         } else {
@@ -427,23 +388,14 @@ impl Params {
                 3,
                 2,
                 &[
-                    (-r - c0) / l,
-                    -c1 / l,
-                    -c2 / l, //
-                    c0 / (rc * c),
-                    (c1 - 1.0) / (rc * c),
-                    c2 / (rc * c), //
-                    (1.0 - k * c0) / cl,
-                    (1.0 / rc - k * c1) / cl,
-                    -k * c2 / cl,
+                    (-r - c0) / l, -c1 / l, -c2 / l, //
+                    c0 / (rc * c), (c1 - 1.0) / (rc * c), c2 / (rc * c), //
+                    (1.0 - k * c0) / cl, (1.0 / rc - k * c1) / cl, -k * c2 / cl,
                 ],
                 &[
-                    1.0 / l,
-                    -dv / l, //
-                    0.0,
-                    dv / (rc * c), //
-                    0.0,
-                    (-1.0 - k * dv) / cl,
+                    1.0 / l, -dv / l, //
+                    0.0, dv / (rc * c), //
+                    0.0, (-1.0 - k * dv) / cl,
                 ],
             )
         }
@@ -484,29 +436,21 @@ impl Params {
     /// ```
     ///
     /// The `vo/rload` term is there only with a load resistor (`rload > 0`).
+    #[rustfmt::skip] // the matrices row by row
     pub fn full_lti(&self) -> Lti {
         let Self { l, rl, c, rc, cl, .. } = *self;
         let mut lti = Lti::new(
             3,
             2,
             &[
-                -rl / l,
-                0.0,
-                -1.0 / l, //
-                0.0,
-                -1.0 / (rc * c),
-                1.0 / (rc * c), //
-                1.0 / cl,
-                1.0 / (rc * cl),
-                -1.0 / (rc * cl),
+                -rl / l, 0.0, -1.0 / l, //
+                0.0, -1.0 / (rc * c), 1.0 / (rc * c), //
+                1.0 / cl, 1.0 / (rc * cl), -1.0 / (rc * cl),
             ],
             &[
-                1.0 / l,
-                0.0, //
-                0.0,
-                0.0, //
-                0.0,
-                -1.0 / cl,
+                1.0 / l, 0.0, //
+                0.0, 0.0, //
+                0.0, -1.0 / cl,
             ],
         );
         if self.rload > 0.0 {
@@ -517,22 +461,19 @@ impl Params {
 
     /// The reduced second-order model with the inductor current as an input: states
     /// `[vc, vo]`, inputs `[il, io]` (with `−vo/rload` at the output node when `rload > 0`).
+    #[rustfmt::skip] // the matrices row by row
     pub fn reduced_lti(&self) -> Lti {
         let Self { c, rc, cl, .. } = *self;
         let mut lti = Lti::new(
             2,
             2,
             &[
-                -1.0 / (rc * c),
-                1.0 / (rc * c), //
-                1.0 / (rc * cl),
-                -1.0 / (rc * cl),
+                -1.0 / (rc * c), 1.0 / (rc * c), //
+                1.0 / (rc * cl), -1.0 / (rc * cl),
             ],
             &[
-                0.0,
-                0.0, //
-                1.0 / cl,
-                -1.0 / cl,
+                0.0, 0.0, //
+                1.0 / cl, -1.0 / cl,
             ],
         );
         if self.rload > 0.0 {

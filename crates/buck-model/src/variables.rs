@@ -141,6 +141,7 @@ const ANY: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
 use Causality::{Input, Output, Parameter};
 
 /// Every variable of the converter; the index is the FMI value reference.
+#[rustfmt::skip] // a variable per line: the table reads as one
 pub const VARIABLES: &[Variable] = &[
     real(VarId::Duty, "duty", Input, "1", (0.0, 1.0), Some(0.5), "Duty cycle command in open loop (latched at each period start)"),
     real(VarId::Io, "io", Input, "A", (-100.0, 100.0), Some(1.0), "Load current drawn from the output"),
@@ -196,44 +197,12 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::Esl, "esl", Parameter, "H", (0.0, 1e-6), Some(0.0), "Series inductance of the C branch (both modes)"),
     real(VarId::InductorSaturation, "inductor_saturation", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of L lost for |il| > isat (both modes)"),
     real(VarId::Isat, "isat", Parameter, "A", (1e-3, 1e4), Some(10.0), "Saturation current of the inductor"),
-    real(
-        VarId::CapDcBias,
-        "cap_dc_bias",
-        Parameter,
-        "1",
-        (0.0, 0.9),
-        Some(0.0),
-        "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), capped at V_rated, held over each period at its value for the mid-period voltage (both modes)",
-    ),
+    real(VarId::CapDcBias, "cap_dc_bias", Parameter, "1", (0.0, 0.9), Some(0.0), "Fraction of Cl lost at cap_rated_voltage, Cl(v) = Cl (1 - cap_dc_bias (v/V_rated)^2), capped at V_rated, held over each period at its value for the mid-period voltage (both modes)"),
     real(VarId::CapRatedVoltage, "cap_rated_voltage", Parameter, "V", (0.1, 1000.0), Some(16.0), "Rated voltage of Cl for cap_dc_bias"),
     real(VarId::Rload, "rload", Parameter, "Ohm", (0.0, 1e9), Some(0.0), "Load resistance from the output node vout to ground, beside the load current io; 0 = none (both modes)"),
-    real(
-        VarId::DiodeResistance,
-        "diode_resistance",
-        Parameter,
-        "Ohm",
-        (0.0, 10.0),
-        Some(0.0),
-        "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)",
-    ),
-    real(
-        VarId::SwitchNodeCapacitance,
-        "switch_node_capacitance",
-        Parameter,
-        "F",
-        (0.0, 1e-6),
-        Some(0.0),
-        "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)",
-    ),
-    real(
-        VarId::LowSideRatio,
-        "low_side_ratio",
-        Parameter,
-        "1",
-        (0.01, 100.0),
-        Some(1.0),
-        "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)",
-    ),
+    real(VarId::DiodeResistance, "diode_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)"),
+    real(VarId::SwitchNodeCapacitance, "switch_node_capacitance", Parameter, "F", (0.0, 1e-6), Some(0.0), "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)"),
+    real(VarId::LowSideRatio, "low_side_ratio", Parameter, "1", (0.01, 100.0), Some(1.0), "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
