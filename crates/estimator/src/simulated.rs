@@ -462,13 +462,20 @@ struct Minimum {
     cost: f64,
     iterations: usize,
     converged: bool,
+    /// Simulations it took (trial steps, and one per unknown for each Jacobian by differences).
+    #[cfg_attr(not(test), expect(dead_code, reason = "the tests' measure of a minimum's cost"))]
+    simulations: usize,
 }
 
 /// Minimizes the criterion over `[ln θ | start]` of `free` from `logs` (Levenberg–Marquardt on
 /// forward differences, steps capped at [`MAX_LOG_STEP`]).
 fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Result<Minimum, EstimatorError> {
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
-    let by_differences = |logs: &[f64], r: &DVector<f64>| jacobian(start, free, logs, estimation, criterion, il_weight, r).ok_or_else(not_simulable);
+    let simulations = std::cell::Cell::new(1);
+    let by_differences = |logs: &[f64], r: &DVector<f64>| {
+        simulations.set(simulations.get() + logs.len());
+        jacobian(start, free, logs, estimation, criterion, il_weight, r).ok_or_else(not_simulable)
+    };
     let mut r = residuals(start, free, &logs, estimation, criterion, il_weight).ok_or_else(not_simulable)?;
     let mut cost = r.norm_squared();
     let mut j = by_differences(&logs, &r)?;
@@ -511,6 +518,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                 continue;
             }
             let trial: Vec<f64> = logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect();
+            simulations.set(simulations.get() + 1);
             match residuals(start, free, &trial, estimation, criterion, il_weight) {
                 Some(rt) if rt.norm_squared() < cost => {
                     let gain = cost - rt.norm_squared();
@@ -529,7 +537,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                     accepted = Some((step, dr));
                     if free.iter().zip(&logs).any(|(f, u)| f.ceiling().is_some_and(|m| f.from_unknown(*u) >= m * (1.0 - AT_CEILING))) {
                         let j = by_differences(&logs, &r)?;
-                        return Ok(Minimum { logs, r, j, cost, iterations, converged: false });
+                        return Ok(Minimum { logs, r, j, cost, iterations, converged: false, simulations: simulations.get() });
                     }
                     break;
                 }
@@ -568,7 +576,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
         // Out of iterations on an updated Jacobian: the covariance needs the minimum's own.
         j = by_differences(&logs, &r)?;
     }
-    Ok(Minimum { logs, r, j, cost, iterations, converged })
+    Ok(Minimum { logs, r, j, cost, iterations, converged, simulations: simulations.get() })
 }
 
 /// The sensor-noise variance (in vout's units) and the covariance of the unknowns at a minimum.
@@ -662,6 +670,24 @@ mod tests {
         }
         assert!(b.rel_std >= a.rel_std, "high-pass σ {} below the output error's {}", b.rel_std, a.rel_std);
         assert!((hp.fit.sigma[0] / 2e-3 - 1.0).abs() < 0.1, "sensor σ from the differenced residual {}", hp.fit.sigma[0]);
+    }
+
+    /// Started at its minimum, a fit ends after the Jacobian there and the few steps the noise
+    /// leaves worth taking: it does not try ever more damped steps that the linearization
+    /// already says gain nothing (that climb of λ from 1e-9 to 1e10 took twenty simulations).
+    #[test]
+    fn a_fit_at_its_minimum_stops_without_trying_worthless_steps() {
+        let truth = Params { cl: 4.7e-6, ..Params::default() };
+        let exp = Experiment { samples: 800, noise_vout: 2e-3, io: 1.5, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let estimation = data.slice(0..600);
+        let free = [Free::Cl];
+        let first = fit(&data, &truth, &free, 600).unwrap();
+        let logs: Vec<f64> = free.iter().map(|f| f.to_unknown(f.get(&first.fit.params))).chain(first.fit.x0.iter().copied()).collect();
+        let m = minimize(&first.fit.params, &free, logs, &estimation, Criterion::OutputError, None).unwrap();
+        assert!(m.converged, "not converged after {} iterations", m.iterations);
+        // The residuals, the Jacobian by differences (3 unknowns) and at most one step.
+        assert!(m.simulations <= 1 + 3 + 1, "{} simulations at the minimum", m.simulations);
     }
 
     #[test]
