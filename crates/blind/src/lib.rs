@@ -90,9 +90,10 @@ pub struct Case {
     /// the gap the nominal model leaves decides detectability.
     pub effect_rms: Option<f64>,
     /// The load capacitance the data shows, which the scores compare against [F]: `truth.cl`,
-    /// except for a DC-biased ceramic, whose small-signal capacitance at the mean of `vout` it
-    /// is (the value at 0 V is an extrapolation by a bias law, which data that never leaves
-    /// the operating point cannot tell; the diagnosis reports Cl there too).
+    /// except for a DC-biased ceramic, whose small-signal capacitance at its operating point it
+    /// is, the output voltage averaged in time ([`operating_point`]; the value at 0 V is an
+    /// extrapolation by a bias law, which data that never leaves the operating point cannot
+    /// tell; the diagnosis reports Cl there too).
     pub true_cl: f64,
 }
 
@@ -199,7 +200,7 @@ pub fn plant_case(truth: Truth, seed: u64, fmu: Option<&Path>) -> Result<Case, E
         }
     };
     let model = model_for(truth.effect);
-    let true_cl = model_biased_cl(&truth, mean(&data.vout));
+    let true_cl = model_biased_cl(&truth, operating_point(&data)?);
     Ok(Case { data: blind(data), nominal: Params::default(), model, source: if fmu.is_some() { "fmu" } else { "in-process" }, true_cl, truth, effect_rms: None })
 }
 
@@ -282,7 +283,7 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     let noise = Normal::new(0.0, truth.noise).map_err(|e| EstimatorError::Config(e.to_string()))?;
     data.vout.iter_mut().for_each(|v| *v += noise.sample(&mut rng));
     let model = model_for(truth.effect);
-    let true_cl = model_biased_cl(&truth, mean(&data.vout));
+    let true_cl = model_biased_cl(&truth, operating_point(&data)?);
     Ok(Case { data: blind(data), nominal, model, source: "ngspice", true_cl, truth, effect_rms: None })
 }
 
@@ -491,7 +492,7 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
         DataSet::read_csv(&out)
     };
     let data = run(truth.cl, &truth.settings, "data.csv")?;
-    let true_cl = harness_biased_cl(&truth, mean(&data.vout));
+    let true_cl = harness_biased_cl(&truth, operating_point(&data)?);
     let keys: Option<Vec<&str>> = truth.effects().iter().map(|e| harness_effect_keys(e)).collect::<Option<Vec<_>>>().map(|k| k.concat());
     let effect_rms = match keys.filter(|k| !k.is_empty()) {
         Some(keys) => {
@@ -511,6 +512,22 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
 fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len().max(1) as f64
 }
+
+/// The operating point of a generator's record: its output voltage averaged in time, from the
+/// plant's own period averages (`vout_avg`: the FMU, the own netlists) or the harness's
+/// `vout_time_mean` [V]. Not the samples' mean: they are all taken at one phase of the ripple.
+fn operating_point(data: &DataSet) -> Result<f64, EstimatorError> {
+    if let Some(averages) = data.vout_avg.as_deref() {
+        return Ok(mean(averages));
+    }
+    data.meta
+        .get(HARNESS_TIME_MEAN)
+        .and_then(|v| v.parse::<f64>().ok())
+        .ok_or_else(|| EstimatorError::Data(format!("the generator recorded no time average of vout (`vout_avg` or `# {HARNESS_TIME_MEAN}`)")))
+}
+
+/// The harness's metadata key for the output voltage averaged in time over the record.
+const HARNESS_TIME_MEAN: &str = "vout_time_mean";
 
 /// The load capacitance at the voltage `v` under the model's DC-bias law (the FMU's and the
 /// own netlists', `cap_rated_voltage` 16 V unless set) [F]; `truth.cl` without a bias.

@@ -145,6 +145,42 @@ pub fn simulate(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<V
 
 /// [`simulate`], with the inductor current at the same instants.
 pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
+    // What the readings make of the voltage and the current (their gain and zero errors).
+    let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
+    let read_il = |i: f64| (1.0 + p.il_gain_error) * i + p.il_offset;
+    let mut out = Vec::with_capacity(data.len());
+    let mut il = Vec::with_capacity(data.len());
+    drive(p, data, start, |conv| {
+        out.push(read(conv.outputs().vout));
+        il.push(read_il(conv.state().il));
+    })?;
+    if out.iter().chain(&il).all(|v| v.is_finite()) { Ok((out, il)) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
+}
+
+/// The output voltage averaged over the whole record in time (each period's exact average),
+/// as the circuit `p` runs on `data`'s inputs from `start`, the readings' errors left out [V]:
+/// the operating point a DC-biased ceramic sits at. The samples' mean is not: they are all
+/// taken at one phase of the ripple.
+pub fn time_averaged_output(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<f64, EstimatorError> {
+    // At each sampling instant the last completed period is the one before it.
+    let (mut sum, mut periods) = (0.0, 0usize);
+    let mut k = 0;
+    let last = drive(p, data, start, |conv| {
+        if k > 0 {
+            sum += conv.outputs().vout_avg;
+            periods += 1;
+        }
+        k += 1;
+    })?;
+    let mean = (sum + last.outputs().vout_avg) / (periods + 1) as f64;
+    if mean.is_finite() { Ok(mean) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
+}
+
+/// Runs the switched converter with circuit values `p` period by period on `data`'s duty, `io`
+/// and `vin`, from `start` (a voltage: both capacitors at it, the DC point's current), calling
+/// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it).
+/// Returns the converter at the end of the record.
+fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter)) -> Result<Converter, EstimatorError> {
     let Start { v0, dil } = start.into();
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
@@ -164,27 +200,20 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> 
     if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
         return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
-    // What the readings make of the voltage and the current (their gain and zero errors).
-    let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
-    let read_il = |i: f64| (1.0 + p.il_gain_error) * i + p.il_offset;
-    let mut out = Vec::with_capacity(data.len());
-    let mut il = Vec::with_capacity(data.len());
     for k in 0..data.len() {
         if late > 0.0 {
             // The duty is latched at the period start; the reading comes `late` into it.
             set_inputs(&mut conv, k)?;
             conv.step(late).map_err(plant)?;
-            out.push(read(conv.outputs().vout));
-            il.push(read_il(conv.state().il));
+            at_sample(&conv);
             conv.step(period - late).map_err(plant)?;
         } else {
-            out.push(read(conv.outputs().vout));
-            il.push(read_il(conv.state().il));
+            at_sample(&conv);
             set_inputs(&mut conv, k)?;
             conv.step(period).map_err(plant)?;
         }
     }
-    if out.iter().chain(&il).all(|v| v.is_finite()) { Ok((out, il)) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
+    Ok(conv)
 }
 
 /// Circuit values with the free parameters set from the unknowns `[ln θ | start]` (a logit for a
@@ -688,6 +717,27 @@ mod tests {
         assert!(m.converged, "not converged after {} iterations", m.iterations);
         // The residuals, the Jacobian by differences (3 unknowns) and at most one step.
         assert!(m.simulations <= 1 + 3 + 1, "{} simulations at the minimum", m.simulations);
+    }
+
+    /// The time-averaged output is the plant's own period averages over the record (a biased
+    /// ceramic, PRBS duty), and at a constant duty the volt-second balance `d·U − RL·io`; the
+    /// samples, all taken where the ripple puts them, sit tens of millivolts away from it.
+    #[test]
+    fn time_averaged_output_is_the_plants_own_average() {
+        let truth = Params { cl: 10e-6, cap_dc_bias: 0.5, ..Params::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &Experiment { samples: 1500, io: 1.5, ..Experiment::default() }).unwrap();
+        let plant: Vec<f64> = data.vout_avg.clone().unwrap();
+        let plant_mean = plant.iter().sum::<f64>() / plant.len() as f64;
+        let ours = time_averaged_output(&truth, &data, data.vout[0]).unwrap();
+        assert!((ours - plant_mean).abs() < 1e-3, "{ours} V against the plant's {plant_mean} V");
+        let steady = DataSet { duty: vec![0.5; data.len()], ..data };
+        let balance = 0.5 * 12.0 - truth.rl * 1.5;
+        let ours = time_averaged_output(&truth, &steady, balance).unwrap();
+        // (Up to the start's transient: il starts at the DC point, not on the ripple's orbit.)
+        assert!((ours - balance).abs() < 2e-3, "{ours} V against d·U − RL·io = {balance} V");
+        let sampled = simulate(&truth, &steady, balance).unwrap();
+        let samples = sampled.iter().sum::<f64>() / sampled.len() as f64;
+        assert!((samples - balance).abs() > 0.01, "the samples' mean {samples} V is the average too");
     }
 
     #[test]

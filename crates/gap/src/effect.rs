@@ -89,6 +89,10 @@ pub struct ClMove {
     /// that multiple; Cl is then not identified, whatever its interval said.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub misses_by_floors: Option<f64>,
+    /// For a final model whose bias law the diagnosis anchored: the operating point Cl is
+    /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub operating_point: Option<f64>,
 }
 
 impl ClMove {
@@ -105,6 +109,7 @@ impl ClMove {
             widened_by: None,
             bias_law: None,
             misses_by_floors: None,
+            operating_point: None,
         }
     }
 
@@ -112,6 +117,28 @@ impl ClMove {
     pub(crate) fn take_reported(&mut self, check: &ClCheck, cl_before: f64) {
         (self.estimate, self.ci95) = check.reported();
         self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
+    }
+
+    /// Cl of a bias law read at the voltage `v` instead of the law's reference, where it is
+    /// `ratio` times as large: every value of Cl it carries (its test's fits, the other law's),
+    /// the move against `cl_before` with it. The same circuit, anchored elsewhere; the ratio is
+    /// taken as exact (the fitted law's slope moves it by a fraction of its own uncertainty over
+    /// the millivolts between the two voltages).
+    pub(crate) fn read_at(&mut self, v: f64, ratio: f64, cl_before: f64) {
+        let scale = |ci: &mut [f64; 2]| *ci = ci.map(|c| c * ratio);
+        self.estimate *= ratio;
+        scale(&mut self.ci95);
+        if let Some(check) = self.check.as_mut() {
+            (check.estimate, check.high_pass) = (check.estimate * ratio, check.high_pass * ratio);
+            scale(&mut check.high_pass_ci95);
+            scale(&mut check.model_ci95);
+        }
+        if let Some(law) = self.bias_law.as_mut() {
+            law.other_cl *= ratio;
+            scale(&mut law.other_ci95);
+        }
+        self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
+        self.operating_point = Some(v);
     }
 }
 

@@ -136,6 +136,9 @@ impl Diagnosis {
         if let Some(law) = law {
             test += &format!("; {law}");
         }
+        if let Some(v) = self.selected.last().and_then(|e| e.cl.operating_point) {
+            test += &format!("; read at the operating point, the time-averaged vout of {v:.3} V (the samples' mean is one phase of the ripple)");
+        }
         if let Some(k) = widened {
             test += &format!("; widened ×{k:.2} for the model error the residual still shows");
         }
@@ -168,6 +171,9 @@ fn bias_reference(nominal: &Params, data: &DataSet) -> Params {
 /// fitted (e.g. deep DCM, far from any linear model) the plant simulator itself with Cl free
 /// stands in for it.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
+    // A law the nominal brings is read at its own reference; one the diagnosis fits, at the
+    // converter's operating point.
+    let own_bias_law = nominal.cap_dc_bias > 0.0;
     let nominal = &bias_reference(nominal, data);
     let base = match identify(data, nominal, &nominal_options(opts)) {
         Err(_) if opts.nominal == Nominal::Switched => identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?,
@@ -251,12 +257,21 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
+    let mut preferred_circuit = None;
     let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout).map(|(spread, alt)| {
         if spread.prefers_other() {
             select::at_final_values(&mut selected, &alt, nominal);
+            preferred_circuit = Some(alt.fit.params);
         }
         spread
     });
+    // The final circuit with its law's shape (the other law's fit, where the data prefers it).
+    let operating = match (own_bias_law, selected.last()) {
+        (false, Some(last)) => preferred_circuit
+            .or_else(|| select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok().map(|s| s.params))
+            .and_then(|p| bias_law::operating_point(data, &p)),
+        _ => None,
+    };
     if let Some(last) = selected.last_mut() {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
@@ -267,6 +282,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             (last.cl.estimate, last.cl.ci95) = spread.reported(last.cl.estimate, last.cl.ci95);
             last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
             last.cl.bias_law = Some(spread);
+        }
+        if let Some((v, ratio)) = operating {
+            last.cl.read_at(v, ratio, baseline.cl);
         }
         (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, &last.residual, last.rms_after);
     } else {
