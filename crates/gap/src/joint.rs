@@ -189,6 +189,11 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     // dropped (one whose parameters are not identified before any other).
     let mut dropped = Vec::new();
     let findings = loop {
+        // With every effect the refit added pruned again, what is left is the selection's own
+        // model, or less of it: nothing it could change (the backward step has judged those).
+        if groups.iter().all(|g| g.selected) {
+            return None;
+        }
         // A parameter the data does not pin down beside the others: its effect goes first, one the
         // refit added before one the selection found (a diode's drop lost beside the slope
         // resistance and node capacitance added to it is the diode's, not theirs to take).
