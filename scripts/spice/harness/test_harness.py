@@ -35,9 +35,7 @@ def args(*extra):
 def mean_vout(a, n_tail=20):
     """Mean of vout over the last n_tail whole periods (trapezoid over ngspice's points)."""
     t, v, _ = harness.transient(a, np.full(N, D))
-    t0, t1 = (N - n_tail) * T, N * T
-    grid = np.linspace(t0, t1, 20001)
-    return np.trapezoid(np.interp(grid, t, v), grid) / (t1 - t0)
+    return harness.time_mean(t, v, (N - n_tail) * T, N * T)
 
 
 def ripple(a):
@@ -96,8 +94,8 @@ def test_adc_delay_samples_on_the_rising_ripple():
     # Reference: in the on-time il rises at (U - vo)/L, so a sample tau later reads that much more.
     base = ["--topology", "sw", "--io", "2", "--periods", "40", "--noise-vout", "0", "--noise-il", "0"]
     duty = np.full(40, D)
-    _, il0 = harness.run(args(*base, "--adc-delay", "0"), duty)
-    _, il1 = harness.run(args(*base, "--adc-delay", "300e-9"), duty)
+    _, il0, _ = harness.run(args(*base, "--adc-delay", "0"), duty)
+    _, il1, _ = harness.run(args(*base, "--adc-delay", "300e-9"), duty)
     slope = (U - (D * U - 2 * RL)) / L
     assert np.allclose(il1[-10:] - il0[-10:], slope * 300e-9, rtol=0.03)
 
@@ -134,7 +132,8 @@ def test_resistive_load_is_written_as_metadata(tmp_path):
     harness.main(["--rload", "4", "--periods", "20", "--warmup", "20", "--out", str(out)])
     lines = out.read_text().splitlines()
     assert "# rload = 4.0" in lines[:3]
-    rows = np.array([[float(x) for x in r.split(",")] for r in lines[4:12]])
+    header = lines.index("time,duty,vin,io,vout,il")
+    rows = np.array([[float(x) for x in r.split(",")] for r in lines[header + 1:header + 9]])
     # Warm-up and the first PRBS bit (8 periods) at one duty: the divider's DC value.
     d0 = rows[0, 1]
     assert np.all(rows[:, 3] == 0.0)
