@@ -209,16 +209,39 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let late_in_il = effects.iter().find(|e| e.late_in_il());
     let ripple = effects.iter().find(|e| e.name == "switching_ripple" && e.finding);
     let first = late_in_il.or(ripple).or_else(|| select::best_material(effects.iter(), |e| e));
+    // Forward selection from a first step, then the backward step and the joint refit.
+    let path = |first: &EffectFit| {
+        let (mut selected, mut ended) = select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+        if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
+            ended = format!("{ended}; then {dropped}");
+        }
+        if let Some(joint) = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
+            ended = format!("{ended}; then {joint}");
+        }
+        (selected, ended)
+    };
     let (mut selected, mut selection_ended) = match first {
-        Some(first) if first.finding => select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline),
+        Some(first) if first.finding => path(first),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
         None => (Vec::new(), "no effect is a finding".to_string()),
     };
-    if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
-        selection_ended = format!("{selection_ended}; then {dropped}");
-    }
-    if let Some(joint) = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
-        selection_ended = format!("{selection_ended}; then {joint}");
+    // The other topology, where the path from the first step still misses materially and the
+    // other topology's best first step came close (see `select::topology_rival`).
+    let rms_left = selected.last().map(|e| e.rms_after);
+    if let (Some(first), Some(rms_left)) = (first.filter(|_| late_in_il.is_none() && ripple.is_none()), rms_left)
+        && baseline.misses_materially(rms_left) == Some(true)
+        && let Some(rival) = select::topology_rival(&effects, first)
+    {
+        let (other, other_ended) = path(rival);
+        let closes = other.last().and_then(|e| baseline.closed_of_material_gap(rms_left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
+        let note = match closes {
+            Some(c) => format!("; the path from {} (the other topology) closes {c:.1} % of the gap this one left ({:.2} mV held out): taken instead", rival.name, rms_left * 1e3),
+            None => format!("; the path from {} (the other topology) closes no material share of the gap this one left", rival.name),
+        };
+        if closes.is_some() {
+            (selected, selection_ended) = (other, format!("{other_ended} (from {}, after the path from {}: {selection_ended})", rival.name, first.name));
+        }
+        selection_ended += &note;
     }
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.
