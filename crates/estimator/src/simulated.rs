@@ -162,17 +162,16 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> 
 /// the operating point a DC-biased ceramic sits at. The samples' mean is not: they are all
 /// taken at one phase of the ripple.
 pub fn time_averaged_output(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<f64, EstimatorError> {
-    // At each sampling instant the last completed period is the one before it.
-    let (mut sum, mut periods) = (0.0, 0usize);
-    let mut k = 0;
+    // At each sampling instant the last completed period is the one before it (none at the
+    // first); the record's last period completes at its end.
+    let (mut sum, mut first) = (0.0, true);
     let last = drive(p, data, start, |conv| {
-        if k > 0 {
+        if !first {
             sum += conv.outputs().vout_avg;
-            periods += 1;
         }
-        k += 1;
+        first = false;
     })?;
-    let mean = (sum + last.outputs().vout_avg) / (periods + 1) as f64;
+    let mean = (sum + last.outputs().vout_avg) / data.len() as f64;
     if mean.is_finite() { Ok(mean) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
 }
 
