@@ -194,6 +194,12 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         if groups.iter().all(|g| g.selected) {
             return None;
         }
+        // Pruning only takes away: once what is left closes no material share of the gap the
+        // selection left, the refit has failed (the final check below), and the rounds of refits
+        // still to come would only confirm it.
+        if baseline.closed_of_material_gap(last.rms_after, rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE) {
+            return None;
+        }
         // A parameter the data does not pin down beside the others: its effect goes first, one the
         // refit added before one the selection found (a diode's drop lost beside the slope
         // resistance and node capacitance added to it is the diode's, not theirs to take).
