@@ -9,7 +9,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::Criterion;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, variance};
+use crate::effect::{Baseline, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, residual, rms, variance};
 use crate::options::{DiagnoseOptions, Nominal, nominal_options};
 
 fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candidate, String> {
@@ -108,6 +108,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
                     trial.not_nested |= not_nested;
                     let late = (name == "sample_delay").then_some(trial.cand.fit.params);
                     let mut fit = judge(name, trial, reference).0;
+                    fit.rebase(baseline, rms(&residual(reference)), rms(&residual(switched_base)));
                     fit.aic += offset;
                     if let Some(late) = late.filter(|_| !not_nested) {
                         fit.judge_in_il(data, &reference.fit.params, &late, n_est, baseline.tolerance);
