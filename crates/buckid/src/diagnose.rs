@@ -142,6 +142,9 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     println!("selection   {}", dx.selection_ended);
     println!("verdict     {}", dx.verdict);
+    if let Some(regime) = dx.regime() {
+        println!("regime      {regime}");
+    }
     let (cl, ci95, test) = dx.final_cl();
     println!("Cl          {}; {test}", with_ci(cl, Some(ci95), "F"));
 

@@ -71,19 +71,18 @@ impl BiasLawSpread {
 }
 
 /// Where a biased ceramic's Cl is reported: at the converter's operating point, the output
-/// voltage averaged in time over the record as the final circuit `p` runs on the data's inputs
-/// ([`estimator::simulated::time_averaged_output`]). The law is anchored at the mean of the
-/// samples for the fits ([`crate::bias_reference`]), but they are all taken at one phase of the
-/// ripple: at a thesis-scale ripple 34 mV below the average, which put Cl under a law losing
+/// voltage `vout_time_mean` averaged in time over the record as the final circuit `p` runs on
+/// the data's inputs ([`estimator::simulated::operation`]). The law is anchored at the mean of
+/// the samples for the fits ([`crate::bias_reference`]), but they are all taken at one phase of
+/// the ripple: at a thesis-scale ripple 34 mV below the average, which put Cl under a law losing
 /// 0.013 %/mV there 0.45 % high, outside its ±0.2 % interval. The voltage, and Cl's ratio there
-/// to Cl at the law's reference; `None` without a bias law or where the simulation fails.
-pub(crate) fn operating_point(data: &DataSet, p: &Params) -> Option<(f64, f64)> {
-    if p.cap_dc_bias == 0.0 || data.is_empty() {
+/// to Cl at the law's reference; `None` without a bias law.
+pub(crate) fn operating_point(p: &Params, vout_time_mean: f64) -> Option<(f64, f64)> {
+    if p.cap_dc_bias == 0.0 {
         return None;
     }
-    let v = estimator::simulated::time_averaged_output(p, data, data.vout[0]).ok()?;
-    let ratio = p.cl_at(v) / p.cl;
-    (ratio.is_finite() && ratio > 0.0).then_some((v, ratio))
+    let ratio = p.cl_at(vout_time_mean) / p.cl;
+    (ratio.is_finite() && ratio > 0.0).then_some((vout_time_mean, ratio))
 }
 
 impl std::fmt::Display for BiasLawSpread {

@@ -109,6 +109,12 @@ pub struct Diagnosis {
     pub selection_ended: String,
     /// The first selected effect (the single effect that explains most), or `none`.
     pub verdict: String,
+    /// Where the final model is a diode buck: the share of periods it starts in DCM, the
+    /// diode having blocked before the period ended (`il` at zero), as it runs on the data's
+    /// inputs. DCM is in the model's diode by construction, so it is reported here, not as an
+    /// effect of its own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dcm_share: Option<f64>,
     /// The nominal model used.
     pub nominal: Nominal,
     /// Held-out traces for plots.
@@ -146,6 +152,15 @@ impl Diagnosis {
             test += &format!("; not identified: the final model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
         (cl, ci95, test)
+    }
+
+    /// A sentence on how the final model runs where it is a diode buck: the share of periods
+    /// it starts in DCM ([`Diagnosis::dcm_share`]).
+    pub fn regime(&self) -> Option<String> {
+        self.dcm_share.map(|share| match share {
+            0.0 => "the final model, a diode buck, conducts continuously (CCM) in every period".to_string(),
+            s => format!("the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero)", 100.0 * s),
+        })
     }
 }
 
@@ -288,13 +303,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         spread
     });
-    // The final circuit with its law's shape (the other law's fit, where the data prefers it).
-    let operating = match (own_bias_law, selected.last()) {
-        (false, Some(last)) => preferred_circuit
-            .or_else(|| select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok().map(|s| s.params))
-            .and_then(|p| bias_law::operating_point(data, &p)),
-        _ => None,
-    };
+    // The final circuit with its law's shape (the other law's fit, where the data prefers it),
+    // run on the data's inputs where that tells something: a ceramic's operating point (a law
+    // the nominal brings keeps its own reference), a diode buck's share of DCM periods.
+    let final_circuit = selected.last().and_then(|last| preferred_circuit.or_else(|| select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok().map(|s| s.params)));
+    let biased = |p: &Params| p.cap_dc_bias > 0.0 && !own_bias_law;
+    let operation = final_circuit.filter(|p| biased(p) || p.asynchronous()).and_then(|p| estimator::simulated::operation(&p, data, data.vout[0]).ok().map(|o| (p, o)));
+    let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
+    let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
     if let Some(last) = selected.last_mut() {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
@@ -342,6 +358,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         selected,
         selection_ended,
         verdict,
+        dcm_share,
         nominal: opts.nominal,
         traces,
     })

@@ -380,6 +380,8 @@ fn large_diode_drop_in_deep_dcm_is_found() {
     let (_, [lo, hi], _) = dx.final_cl();
     assert!(lo <= cl && cl <= hi, "Cl {:e} outside [{lo:e}, {hi:e}]", fit.cl.estimate);
     assert!((fit.params["diode_drop"] - 0.77).abs() < 0.01, "{:?}", fit.params);
+    // Half the ripple at 0.4 is about 1.4 A: at 1.24 A the diode blocks in most periods.
+    assert!(dx.dcm_share.is_some_and(|s| s > 0.5), "{:?}", dx.regime());
 }
 
 /// On clean data each effect that is linear at zero gets the size above which it would have

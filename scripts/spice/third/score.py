@@ -12,15 +12,18 @@ Scores (JSON fields checked against crates/buckid/src/diagnose.rs and crates/gap
   named when it is among ``selected[].name`` (a ``param_drift`` when any drift is selected,
   whichever value it frees; the per-case lines show which);
 * every effect of a case named (cases with at least one scored effect);
+* ``dcm`` is named when selected, or when the diagnosis reports that its final model, a diode
+  buck, starts more than 2 % of its periods in DCM (``dcm_share``: DCM is in the model's
+  diode by construction, so it is reported as the regime, not as a step; 2 % is the share
+  above which ``third.py`` lists ``dcm`` for a diode buck);
 * ``none`` on clean cases: ``verdict == "none"``;
 * true Cl inside the final CI95: the last of ``selected``: ``cl.estimate``, ``cl.ci95``;
   ``gap_before.cl``/``gap_before.cl_ci95`` when nothing is selected. An interval that is not
   finite, not positive or wider than a factor of 10 is a miss;
 * median and max time of the diagnosis (wall clock of the process).
 
-A second count, marked "dcm via diode_drop", also takes ``dcm`` as named when ``diode_drop`` is
-selected: the model's diode buck (``diode_drop`` > 0 makes it asynchronous,
-``Params::asynchronous``) stops the current at zero by construction.
+A second count, marked "dcm via diode_drop", also takes ``dcm`` as named whenever ``diode_drop``
+is selected, whatever share of DCM periods the diagnosis reports.
 
 Example:
     python scripts/spice/third/score.py --out /tmp/third --seed 7 --per-kind 2 --jobs 2
@@ -99,6 +102,10 @@ def interval_ok(ci):
     return math.isfinite(lo) and math.isfinite(hi) and lo > 0 and hi > 0 and hi >= lo and hi / lo <= 10.0
 
 
+# Share of a diode buck's periods in DCM above which third.py lists ``dcm`` (``dcm_fraction``).
+DCM_SHARE = 0.02
+
+
 def score_case(truth, dx, lenient_dcm=False):
     """(scored effects, named flags, all named, none ok or None, Cl in CI, Cl estimate, ci)."""
     effects = [e for e in truth["effects"] if e != "sample_delay"]
@@ -107,6 +114,8 @@ def score_case(truth, dx, lenient_dcm=False):
     for e in effects:
         if e == "dcm" and lenient_dcm:
             flags.append("dcm" in names or "diode_drop" in names)
+        elif e == "dcm":
+            flags.append("dcm" in names or (dx.get("dcm_share") or 0.0) > DCM_SHARE)
         else:
             flags.append(e in names)
     cl, ci = final_cl(dx)
@@ -123,6 +132,8 @@ def labels(dx):
             freed = [k for k in ("L", "C", "Rc") if k in e.get("params", {})]
             name += f" ({freed[0]})" if freed else ""
         out.append(name)
+    if dx.get("dcm_share") is not None:
+        out.append(f"(DCM in {100 * dx['dcm_share']:.0f} % of periods)")
     return out
 
 

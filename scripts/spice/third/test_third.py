@@ -158,3 +158,18 @@ def test_saturating_inductor_follows_its_law():
     t_high = high[-1] - high[0]
     assert t_law == pytest.approx(t_high, rel=0.01)
     assert abs(t_linear - t_high) > 0.05 * t_high   # the knee matters at this level
+
+
+def test_dcm_is_scored_named_from_the_reported_regime():
+    """``dcm`` counts as named when the final diode buck runs in DCM in more than the share
+    third.py lists it at, not merely because a diode was selected."""
+    import score
+
+    truth = {"effects": ["diode_drop", "dcm", "sample_delay"], "kind": "single", "cl_true": 1e-6}
+    dx = {"verdict": "diode_drop", "selected": [{"name": "diode_drop", "cl": {"estimate": 1e-6, "ci95": [0.9e-6, 1.1e-6]}}]}
+    effects, flags, all_named, *_ = score.score_case(truth, dict(dx, dcm_share=0.43))
+    assert effects == ["diode_drop", "dcm"] and flags == [True, True] and all_named
+    _, flags, all_named, *_ = score.score_case(truth, dict(dx, dcm_share=0.01))
+    assert flags == [True, False] and not all_named
+    _, flags, *_ = score.score_case(truth, dict(dx, dcm_share=0.01), lenient_dcm=True)
+    assert flags == [True, True]

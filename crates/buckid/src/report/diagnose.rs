@@ -205,6 +205,9 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
             .collect();
         page.html(&table(&["step", "effect", "parameters at the final fit (CI95)", "gap over the floor closed", "of what was left", "held-out residual RMS"], &rows));
         page.html(&format!("<p>The sequence ended: {}.</p>", esc(&si_text(&dx.selection_ended))));
+        if let Some(regime) = dx.regime() {
+            page.html(&format!("<p>Regime: {}.</p>", esc(&regime)));
+        }
     }
     page.html("<h2>Where the nominal model misses</h2>");
     page.html(&format!("<p>{}.</p>", esc(&si_text(&w.summary))));
