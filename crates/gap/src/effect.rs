@@ -99,18 +99,12 @@ impl ClMove {
     /// Cl of `cand` against the nominal fit's `cl_before` (NaN where `cand` has no Cl).
     pub(crate) fn of(cand: &Candidate, cl_before: f64) -> Self {
         let cl = cand.fit.estimate("Cl");
-        let estimate = cl.map_or(f64::NAN, |e| e.value);
-        Self {
-            estimate,
-            ci95: cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]),
-            moved_percent: 100.0 * (estimate / cl_before - 1.0),
-            check: None,
-            check_skipped: None,
-            widened_by: None,
-            bias_law: None,
-            misses_by_floors: None,
-            operating_point: None,
-        }
+        Self::at(cl.map_or(f64::NAN, |e| e.value), cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]), cl_before)
+    }
+
+    /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
+    fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
+        Self { estimate, ci95, moved_percent: 100.0 * (estimate / cl_before - 1.0), check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None }
     }
 
     /// Takes the estimate and interval its test reports, the move against `cl_before` with it.
@@ -856,17 +850,7 @@ mod tests {
             name: "dcm",
             params: BTreeMap::new(),
             ci95: BTreeMap::new(),
-            cl: ClMove {
-                estimate: 1e-6,
-                ci95: [0.9e-6, 1.1e-6],
-                moved_percent: 0.0,
-                check: None,
-                check_skipped: None,
-                widened_by: None,
-                bias_law: None,
-                misses_by_floors: None,
-                operating_point: None,
-            },
+            cl: ClMove::at(1e-6, [0.9e-6, 1.1e-6], 1e-6),
             nrmse_after: 1.0,
             rms_after,
             shrink_percent: 0.0,
