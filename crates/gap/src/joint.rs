@@ -21,7 +21,7 @@ use estimator::model::Free;
 use rayon::prelude::*;
 
 use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, effect_label, judge, residual, rms};
-use crate::select::{DIODE_RESISTANCE_STARTS, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
+use crate::select::{DIODE_RESISTANCE_STARTS, DIODE_TOPOLOGY, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
 #[derive(Debug, Clone)]
@@ -155,7 +155,7 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         before = after;
     }
     let has = |n: &str| fits.iter().any(|e| e.name == n);
-    let diode = has("diode_drop") || has("dcm");
+    let diode = DIODE_TOPOLOGY.iter().any(|n| has(n));
     let mut adds: Vec<(&'static str, Free, f64)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f, f.get(&stack.params))).collect();
     if !stack.free.contains(&Free::RL) {
         adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_STARTS[0].max(stack.params.switch_resistance)));

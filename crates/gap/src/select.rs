@@ -203,7 +203,7 @@ impl Stack {
         if !self.switched {
             return out;
         }
-        let diode = has("diode_drop") || has("dcm");
+        let diode = DIODE_TOPOLOGY.iter().any(|n| has(n));
         // A real diode's drop grows with its current: once a diode conducts in the model, its
         // slope resistance. In a synchronous buck the body diodes conduct only in the dead time,
         // where, with il of one sign at both edges, `Rd` drops `2·td·fs·Rd·il` on average: the
@@ -225,7 +225,9 @@ impl Stack {
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
         // knee in DCM took a 2 % gain error on top of a diode drop).
         let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || calibrates_reading(n));
-        for e in SIMULATED_EFFECTS.iter().filter(|e| !has(e.name) && !(diode && (e.name == "dcm" || e.name == "diode_drop")) && (as_designed || !calibrates_reading(e.name))) {
+        // One diode per model: a diode buck's drop or DCM is never added on top of the other.
+        let in_model = |name: &str| has(name) || (diode && DIODE_TOPOLOGY.contains(&name));
+        for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && (as_designed || !calibrates_reading(e.name))) {
             let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
             s.params = starts[0];
@@ -389,7 +391,7 @@ pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) 
 }
 
 /// Effects that make the buck asynchronous (a diode for its low side).
-const DIODE_TOPOLOGY: [&str; 2] = ["diode_drop", "dcm"];
+pub(crate) const DIODE_TOPOLOGY: [&str; 2] = ["diode_drop", "dcm"];
 
 /// Least share of the nominal's gap above the floor that the other topology's best first step
 /// must close for its path to be followed too [%].
