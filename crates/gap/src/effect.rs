@@ -104,13 +104,20 @@ impl ClMove {
 
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
     fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
-        Self { estimate, ci95, moved_percent: 100.0 * (estimate / cl_before - 1.0), check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None }
+        let mut cl = Self { estimate, ci95, moved_percent: f64::NAN, check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None };
+        cl.moved_from(cl_before);
+        cl
+    }
+
+    /// Sets the move of the estimate against `cl_before` [%].
+    pub(crate) fn moved_from(&mut self, cl_before: f64) {
+        self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
     }
 
     /// Takes the estimate and interval its test reports, the move against `cl_before` with it.
     pub(crate) fn take_reported(&mut self, check: &ClCheck, cl_before: f64) {
         (self.estimate, self.ci95) = check.reported();
-        self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
+        self.moved_from(cl_before);
     }
 
     /// Cl of a bias law read at the voltage `v` instead of the law's reference, where it is
@@ -131,7 +138,7 @@ impl ClMove {
             law.other_cl *= ratio;
             scale(&mut law.other_ci95);
         }
-        self.moved_percent = 100.0 * (self.estimate / cl_before - 1.0);
+        self.moved_from(cl_before);
         self.operating_point = Some(v);
     }
 }

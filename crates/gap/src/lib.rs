@@ -319,7 +319,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         (last.cl.check, last.cl.check_skipped) = tested;
         if let Some(spread) = spread {
             (last.cl.estimate, last.cl.ci95) = spread.reported(last.cl.estimate, last.cl.ci95);
-            last.cl.moved_percent = 100.0 * (last.cl.estimate / baseline.cl - 1.0);
+            last.cl.moved_from(baseline.cl);
             last.cl.bias_law = Some(spread);
         }
         if let Some((v, ratio)) = operating {
