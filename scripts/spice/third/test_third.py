@@ -173,3 +173,16 @@ def test_dcm_is_scored_named_from_the_reported_regime():
     assert flags == [True, False] and not all_named
     _, flags, *_ = score.score_case(truth, dict(dx, dcm_share=0.01), lenient_dcm=True)
     assert flags == [True, True]
+
+
+def test_an_off_fet_blocks_its_supply():
+    # Reference: a MOSFET with its gate at its source blocks the supply (what a datasheet's
+    # IDSS states: microamperes). Level 3 lowers the threshold by ETA*8.15e-22/(COX*L^3)*Vds;
+    # uncapped, the near-ideal card (thick oxide, small COX) conducted amperes at 24 V.
+    rng = np.random.default_rng(11)
+    for family in ("thesis", "lab", "pol"):
+        F = third.FAMILIES[family]
+        for ideal in (True, False):
+            for _ in range(6):
+                p = third.fet_params(rng, F, 1e-3, vth=F["vth"][0], ideal=ideal)
+                assert abs(third.drain_current(p, 0.0, 1.2 * F["U"])) < 1e-3, (family, ideal, p["eta"])

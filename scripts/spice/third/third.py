@@ -183,7 +183,18 @@ def fet_params(rng, F, ron, vth=None, ideal=False):
                  body=dict(is_=_lu(rng, 1e-12, 1e-10), n=_u(rng, 1.0, 1.3), rs=_u(rng, 3e-3, 20e-3),
                            tt=_u(rng, 10e-9, 50e-9), cjo=_lu(rng, 200e-12, 1.5e-9), vj=_u(rng, 0.6, 0.8),
                            m=_u(rng, 0.35, 0.5), bv=F["vbd"]))
+    p["eta"] = min(p["eta"], eta_limit(p, vth, F["U"]))
     return p
+
+
+def eta_limit(p, vth, U):
+    """The largest ETA (drain-induced barrier lowering) at which the card's threshold keeps at
+    least half its value at Vds = U: level 3 lowers it by SIGMA*Vds, SIGMA =
+    ETA*8.15e-22/(COX*L^3). A power MOSFET blocks its supply with the gate at zero; uncapped,
+    the thick-oxide near-ideal card (small COX) lost its whole threshold at 24 V and the
+    diode buck's "off" high side carried the inductor current at a 2.4 V node."""
+    cox = EPS_OX / p["tox"]
+    return 0.5 * vth * cox * LCH ** 3 / (8.15e-22 * U)
 
 
 def fet_ron_model(p, vgs):
@@ -1368,18 +1379,23 @@ def edge_offsets(t, vsw, U, n, T):
         float(np.nanmedian(fall)) if np.isfinite(fall).any() else float("nan")
 
 
-def measure_ron(p, vgs):
-    """On-resistance of a FET subcircuit by an ngspice operating point at Vds = 10 mV [ohm]."""
-    with tempfile.TemporaryDirectory(prefix="third_ron_") as tmp:
-        cir = os.path.join(tmp, "ron.cir")
+def drain_current(p, vgs, vds):
+    """Drain current of a FET subcircuit by an ngspice operating point [A]."""
+    with tempfile.TemporaryDirectory(prefix="third_fet_") as tmp:
+        cir = os.path.join(tmp, "fet.cir")
         with open(cir, "w") as fh:
-            fh.write("* ron\n" + fet_subckt("FETX", p) + f"\nVg g 0 {_n(vgs)}\nVd d 0 0.01\nX1 d g 0 FETX\n"
-                     ".control\nop\necho RON_I $&i(vd)\nquit\n.endc\n.end\n")
+            fh.write("* fet\n" + fet_subckt("FETX", p) + f"\nVg g 0 {_n(vgs)}\nVd d 0 {_n(vds)}\nX1 d g 0 FETX\n"
+                     ".control\nop\necho DRAIN_I $&i(vd)\nquit\n.endc\n.end\n")
         out = subprocess.run(["ngspice", "-b", cir], capture_output=True, text=True).stdout
     for line in out.splitlines():
-        if line.startswith("RON_I"):
-            return 0.01 / -float(line.split()[1])
-    raise RuntimeError("ron: no operating point")
+        if line.startswith("DRAIN_I"):
+            return -float(line.split()[1])
+    raise RuntimeError("fet: no operating point")
+
+
+def measure_ron(p, vgs):
+    """On-resistance of a FET subcircuit at Vds = 10 mV [ohm]."""
+    return 0.01 / drain_current(p, vgs, 0.01)
 
 
 # --------------------------------------------------------------------------------------
