@@ -200,6 +200,16 @@ impl Free {
         }
     }
 
+    /// The range of the fit's unknown: the variable table's range through
+    /// [`Free::to_unknown`], unbounded where it has none or the scale cannot reach it (a
+    /// lower bound of zero on the log scale, a ceiling under the logit).
+    pub fn unknown_range(self) -> (f64, f64) {
+        let Some((min, max)) = buck_model::variables::real_range(self.name()) else { return (f64::NEG_INFINITY, f64::INFINITY) };
+        let reach = |v: f64| if self.signed_scale().is_some() || v > 0.0 { self.to_unknown(v) } else { f64::NEG_INFINITY };
+        let hi = if self.ceiling().is_some() { f64::INFINITY } else { reach(max) };
+        (reach(min), hi)
+    }
+
     /// A fit's unknown for the value `v`: `ln v`, or below a [`Free::ceiling`] `M` the logit
     /// `ln(v/(M − v))`, which is `ln v` less a constant far below the ceiling and never reaches
     /// it (a log-scale fit had to refuse its steps there: 30 iterations for a DC-bias law), or

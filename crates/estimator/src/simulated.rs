@@ -549,7 +549,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
             for i in 0..np {
                 a[(i, i)] += lambda * jtj[(i, i)].max(1e-30);
             }
-            let Some(step) = a.cholesky().map(|c| c.solve(&jtr)) else {
+            let Some(step) = step_within_range(&a, &jtr, &logs, free) else {
                 lambda *= 10.0;
                 continue;
             };
@@ -624,6 +624,45 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
     Ok(Minimum { logs, r, j, cost, iterations, converged, simulations: simulations.get() })
 }
 
+/// Distance in the unknowns kept from a bound of a parameter's range ([`Free::unknown_range`]).
+const INSIDE_RANGE: f64 = 1e-9;
+
+/// The damped Gauss–Newton step `a·step = jtr`, projected onto the parameters' ranges: an
+/// unknown at a bound that the step would take past it is held there (its row out of the
+/// system, the others solved without it), and one that would cross a bound from inside stops
+/// just short of it. A fit so runs along the edge of a range instead of refusing every step
+/// that leaves it: with Cl at its 1 nF floor, a drift of C that had to take over the lost
+/// capacitance was refused every step and stayed at its nominal. `None` where the system is
+/// singular.
+fn step_within_range(a: &DMatrix<f64>, jtr: &DVector<f64>, logs: &[f64], free: &[Free]) -> Option<DVector<f64>> {
+    let ranges: Vec<(f64, f64)> = free.iter().map(|f| f.unknown_range()).collect();
+    let mut held = vec![false; free.len()];
+    loop {
+        let (mut a, mut b) = (a.clone(), jtr.clone());
+        for (i, _) in held.iter().enumerate().filter(|(_, h)| **h) {
+            a.row_mut(i).fill(0.0);
+            a.column_mut(i).fill(0.0);
+            (a[(i, i)], b[i]) = (1.0, 0.0);
+        }
+        let mut step = a.cholesky()?.solve(&b);
+        let mut more = false;
+        for (i, &(lo, hi)) in ranges.iter().enumerate() {
+            if held[i] {
+                continue;
+            }
+            let (u, to) = (logs[i], logs[i] + step[i]);
+            if (to < lo && u <= lo + INSIDE_RANGE) || (to > hi && u >= hi - INSIDE_RANGE) {
+                (held[i], more) = (true, true);
+            } else {
+                step[i] = to.clamp(lo + INSIDE_RANGE, hi - INSIDE_RANGE) - u;
+            }
+        }
+        if !more {
+            return Some(step);
+        }
+    }
+}
+
 /// The sensor-noise variance (in vout's units) and the covariance of the unknowns at a minimum.
 fn noise_and_covariance(m: &Minimum, criterion: Criterion) -> Result<(f64, DMatrix<f64>), EstimatorError> {
     let ms = m.cost / (m.r.len() - m.logs.len()) as f64;
@@ -696,6 +735,40 @@ mod tests {
             assert!(e.rel_std < 0.05, "{name}: relative σ {}", e.rel_std);
         }
         assert!((c.fit.sigma[0] / 2e-3 - 1.0).abs() < 0.1, "residual σ {}", c.fit.sigma[0]);
+    }
+
+    /// A fit whose Cl belongs on the floor of its range (no load capacitor) while C lies 14 %
+    /// below its nominal: every step wants less capacitance of both, and Cl has none to give.
+    /// Held on its floor, Cl lets C take the step, and C's interval holds the truth. (Refusing
+    /// every step that left the range, the fit stayed at C's nominal.)
+    #[test]
+    fn a_fit_runs_along_the_floor_of_cls_range() {
+        let floor = buck_model::variables::real_range("Cl").unwrap().0;
+        let truth = Params { cl: floor, c: 86e-6, ..Params::default() };
+        let exp = Experiment { samples: 800, noise_vout: 2e-3, io: 1.5, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let start = Params { cl: floor, ..Params::default() };
+        let c = fit_from_exactly(&data, &[start], &[Free::Cl, Free::C], 600, Criterion::OutputError).unwrap();
+        let e = c.fit.estimate("C").unwrap();
+        assert!(e.ci95.0 < 86e-6 && 86e-6 < e.ci95.1, "C: {e:?}");
+        assert!(c.fit.estimate("Cl").unwrap().value < 1.01 * floor);
+    }
+
+    /// The projected step: an unknown at its floor that the step would take below it is held
+    /// and the rest solved without it; one inside its range stops just short of a bound.
+    #[test]
+    fn a_step_is_projected_onto_the_ranges() {
+        let free = [Free::Cl, Free::C];
+        let floor = Free::Cl.unknown_range().0;
+        let a = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        let jtr = DVector::from_vec(vec![-3.0, -1.0]);
+        // Unconstrained: (−5/3, 1/3); Cl held at its floor: C alone, −1/2.
+        let c = 100e-6_f64.ln();
+        let held = step_within_range(&a, &jtr, &[floor, c], &free).unwrap();
+        assert_eq!(held[0], 0.0);
+        assert!((held[1] + 0.5).abs() < 1e-12, "{held}");
+        let cut = step_within_range(&a, &jtr, &[floor + 1.0, c], &free).unwrap();
+        assert!((cut[0] + 1.0 - INSIDE_RANGE).abs() < 1e-12 && (cut[1] - 1.0 / 3.0).abs() < 1e-12, "{cut}");
     }
 
     /// With the right model the differenced criterion agrees with the output error: both
