@@ -93,12 +93,20 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
         _ => {}
     }
     // Without dead time or a diode nothing conducts while both switches are off: the switch
-    // node's capacitance and a diode's slope resistance go with them.
+    // node's capacitance and a diode's slope resistance go with them. Without the switches'
+    // resistance, the low side's ratio to it goes too (it scales nothing: the fit without the
+    // switches was singular, and the joint model, whose pruning needs every effect judged
+    // without it, was dropped after 4 s of refits).
+    let mut dependent = Vec::new();
     if !(s.params.dead_time > 0.0 || s.params.asynchronous() || s.params.dcm) {
-        for f in [Free::SwitchNodeCapacitance, Free::DiodeResistance] {
-            s.free.retain(|&x| x != f);
-            f.set(&mut s.params, f.get(nominal));
-        }
+        dependent.extend([Free::SwitchNodeCapacitance, Free::DiodeResistance]);
+    }
+    if !s.free.contains(&Free::SwitchResistance) && s.params.switch_resistance == nominal.switch_resistance {
+        dependent.push(Free::LowSideRatio);
+    }
+    for f in dependent {
+        s.free.retain(|&x| x != f);
+        f.set(&mut s.params, f.get(nominal));
     }
     s
 }
@@ -294,4 +302,28 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
         "the joint refit (every effect such a converter carries, fitted together) closes {share:.1} % of the gap left; pruned of {}",
         if dropped.is_empty() { "nothing".to_string() } else { names(&dropped) }
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use buck_model::Mode;
+    use estimator::experiment::{Experiment, ModelPlant, run};
+
+    /// Unequal switches scale the switches' resistance: taken out with it, the model without
+    /// the switches is the nominal with Cl free and fits; left free, the low side's ratio
+    /// scaled nothing and the fit was singular (the joint model, whose pruning judges every
+    /// effect without it, was then dropped).
+    #[test]
+    fn the_model_without_the_switches_drops_their_ratio() {
+        let truth = Params { cl: 10e-6, switch_resistance: 0.01, low_side_ratio: 1.5, ..Params::default() };
+        let exp = Experiment { samples: 1200, noise_vout: 2e-3, io: 2.0, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let stack = Stack { params: truth, free: vec![Free::Cl, Free::SwitchResistance, Free::LowSideRatio], delay: 0, effects: vec!["switch_resistance", "unequal_switches"], switched: true };
+        let switches = Group { name: "switch_resistance", frees: vec![Free::SwitchResistance], selected: true };
+        let (less, fit) = refitted_without(&data, &Params::default(), &stack, [&switches], 800, 1.0 / 3.0).expect("the model without the switches fits");
+        assert_eq!(less.free, vec![Free::Cl]);
+        assert_eq!(less.params.low_side_ratio, Params::default().low_side_ratio);
+        assert!(fit.fit.estimate("Cl").is_some());
+    }
 }
