@@ -147,6 +147,9 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     }
     let (cl, ci95, test) = dx.final_cl();
     println!("Cl          {}; {test}", with_ci(cl, Some(ci95), "F"));
+    if let Some(leverage) = dx.leverage() {
+        println!("leverage    {leverage}");
+    }
 
     if let Some(path) = &args.json {
         let mut json = serde_json::to_value(&dx)?;

@@ -22,8 +22,9 @@ mod select;
 use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::{IdentifyOptions, identify};
-use estimator::model::Structure;
+use estimator::model::{Free, Structure};
 use serde::Serialize;
+use std::collections::BTreeMap;
 
 pub use bias_law::BiasLawSpread;
 pub use effect::{ClCheck, ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
@@ -115,6 +116,11 @@ pub struct Diagnosis {
     /// effect of its own.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dcm_share: Option<f64>,
+    /// How the final Cl leans on the circuit values its model holds at their nominal (`L`,
+    /// `C`, `Rc` unless fitted): `d ln Cl / d ln x`, the per cent Cl moves per per cent of `x`,
+    /// the model's other values refitted (switched data). Cl's CI95 holds these values exact.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_leverage: Option<BTreeMap<String, f64>>,
     /// The nominal model used.
     pub nominal: Nominal,
     /// Held-out traces for plots.
@@ -154,6 +160,13 @@ impl Diagnosis {
         (cl, ci95, test)
     }
 
+    /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
+    pub fn leverage(&self) -> Option<String> {
+        let lever = self.cl_leverage.as_ref().filter(|l| !l.is_empty())?;
+        let each: Vec<String> = lever.iter().map(|(name, k)| format!("{k:+.1} % per 1 % of {name}")).collect();
+        Some(format!("Cl moves {} (its interval holds them at their nominal values)", each.join(", ")))
+    }
+
     /// A sentence on how the final model runs where it is a diode buck: the share of periods
     /// it starts in DCM ([`Diagnosis::dcm_share`]).
     pub fn regime(&self) -> Option<String> {
@@ -178,6 +191,20 @@ fn bias_reference(nominal: &Params, data: &DataSet) -> Params {
         return *nominal;
     }
     Params { cap_rated_voltage: top, cl_reference_voltage: mean.min(top), ..*nominal }
+}
+
+/// Cl's leverage on the values the final model (the nominal with `selected`, at `circuit`
+/// where the bias law's other shape is preferred) holds at their nominal: `L`, `C`, `Rc`
+/// unless fitted ([`estimator::simulated::cl_leverage`]). `None` for an averaged model.
+fn leverage(data: &DataSet, nominal: &Params, selected: &[EffectFit], circuit: Option<Params>, cl: f64, switched_nominal: bool, n_est: usize) -> Option<BTreeMap<String, f64>> {
+    let cl = selected.last().map_or(cl, |e| e.cl.estimate);
+    let stack = select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, cl, switched_nominal).ok()?;
+    if !stack.switched {
+        return None;
+    }
+    let held: Vec<Free> = [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !stack.free.contains(f)).collect();
+    let values = estimator::simulated::cl_leverage(&stack.data(data), &circuit.unwrap_or(stack.params), &stack.free, n_est, &held).ok()?;
+    Some(held.iter().map(|f| f.name().to_string()).zip(values).collect())
 }
 
 /// Diagnoses the gap between `data` and the nominal averaged model with circuit values `nominal`.
@@ -311,6 +338,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let operation = final_circuit.filter(|p| biased(p) || p.asynchronous()).and_then(|p| estimator::simulated::operation(&p, data, data.vout[0]).ok().map(|o| (p, o)));
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
+    let cl_leverage = leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est).filter(|_| switched);
     if let Some(last) = selected.last_mut() {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
@@ -359,6 +387,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         selection_ended,
         verdict,
         dcm_share,
+        cl_leverage,
         nominal: opts.nominal,
         traces,
     })

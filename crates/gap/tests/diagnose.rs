@@ -152,6 +152,25 @@ fn cl_interval_of_the_final_model_is_tested_and_holds() {
     assert!((esr / 0.03 - 1.0).abs() < 0.2, "load ESR {esr:e}");
 }
 
+/// Cl's interval holds the nominal values exact; its leverage on them says what they are worth:
+/// given C 1 % above the truth (within the tolerance, so the same model is fitted), the final
+/// Cl moves by the leverage on C the diagnosis reported, within a fifth.
+#[test]
+fn cls_leverage_on_c_is_what_a_nominal_c_one_percent_off_does() {
+    let switched = DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() };
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::DeadTime, 40e-9).unwrap();
+    let d = data(c);
+    let dx = diagnose(&d, &Params::default(), &switched).unwrap();
+    let lever = dx.cl_leverage.as_ref().unwrap();
+    assert!(lever.keys().eq(["C", "L", "Rc"]), "{lever:?}");
+    let off = diagnose(&d, &Params { c: 1.01 * Params::default().c, ..Params::default() }, &switched).unwrap();
+    let names = |dx: &gap::Diagnosis| dx.selected.iter().map(|e| e.name).collect::<Vec<_>>();
+    assert_eq!(names(&off), names(&dx));
+    let moved = (off.final_cl().0 / dx.final_cl().0).ln() / 1.01_f64.ln();
+    assert!((moved / lever["C"] - 1.0).abs() < 0.2, "Cl moved {moved:+.2} % per % of C, the leverage said {:+.2}", lever["C"]);
+}
+
 /// Real converters carry several effects at once: a diode drop and a series resistance
 /// together, found in turn, each with an identified value near the truth.
 #[test]

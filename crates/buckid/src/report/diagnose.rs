@@ -166,6 +166,9 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
         esc(&with_ci(cl, Some(ci95), "F")),
         esc(&si_text(&test)),
     ));
+    if let Some(leverage) = dx.leverage() {
+        page.html(&format!("<p>Leverage: {}.</p>", esc(&leverage)));
+    }
     page.html(&format!(
         "<p>Data: <code>{}</code>, {} held-out samples of {}. Nominal model: <b>{}</b> with L = {}, RL = {}, C = {}, Rc = {}, fs = {}{}{}. \
 Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({}; nominal fit Cl = {}).{}</p>",
