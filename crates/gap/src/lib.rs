@@ -391,7 +391,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let operation = final_circuit.filter(|p| biased(p) || p.asynchronous()).and_then(|p| estimator::simulated::operation(&p, data, data.vout[0]).ok().map(|o| (p, o)));
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
-    let cl_leverage = leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est).filter(|_| switched);
+    let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
     if let Some(last) = selected.last_mut() {
         if let Some(check) = tested.0.as_mut() {
             check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
