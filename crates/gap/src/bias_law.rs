@@ -15,7 +15,7 @@ use estimator::identify::Candidate;
 use estimator::validate::chi2_99;
 use serde::Serialize;
 
-use crate::effect::{EffectFit, residual, rms};
+use crate::effect::{Baseline, EffectFit, residual, rms};
 use crate::select::Stack;
 
 /// Cl under the other bias law.
@@ -23,6 +23,10 @@ use crate::select::Stack;
 pub struct BiasLawSpread {
     /// The law of the final model.
     pub law: &'static str,
+    /// Cl under the final model's law [F].
+    pub law_cl: f64,
+    /// Its CI95 [F].
+    pub law_ci95: [f64; 2],
     /// The other law, refitted.
     pub other: &'static str,
     /// Cl under the other law [F].
@@ -32,15 +36,18 @@ pub struct BiasLawSpread {
     /// `n·ln(σ²_other/σ²_final)` over the `n` held-out samples (the two laws have as many
     /// parameters): positive where the final law predicts better.
     pub likelihood_ratio: f64,
-    /// The data tells the laws apart (the ratio beyond its 1 % point either way): the better
-    /// law's Cl is reported alone.
+    /// The data tells the laws apart (the ratio beyond its 1 % point either way).
     pub told_apart: bool,
+    /// The better law's model leaves no material miss above the noise floor (`None`: no floor
+    /// to judge by): its shape is taken for the ceramic's, and its Cl is reported alone where
+    /// the laws are told apart.
+    pub fits_to_floor: Option<bool>,
 }
 
 impl BiasLawSpread {
     /// The final model `selected` (carrying `cap_dc_bias`) refitted with the other law, when it
     /// can be, and that refit; `None` otherwise.
-    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64) -> Option<(Self, Candidate)> {
+    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64, baseline: &Baseline) -> Option<(Self, Candidate)> {
         let last = selected.last()?;
         if !selected.iter().any(|e| e.name == "cap_dc_bias") {
             return None;
@@ -50,8 +57,20 @@ impl BiasLawSpread {
         let law = stack.params.cap_bias_law;
         let alt = stack.fit(data, &[Params { cap_bias_law: law.other(), ..stack.params }], n_est, holdout).ok()?;
         let cl = alt.fit.estimate("Cl")?;
-        let likelihood_ratio = (data.len() - n_est) as f64 * (rms(&residual(&alt)) / last.rms_after).ln() * 2.0;
-        let spread = Self { law: law.name(), other: law.other().name(), other_cl: cl.value, other_ci95: [cl.ci95.0, cl.ci95.1], likelihood_ratio, told_apart: likelihood_ratio.abs() > chi2_99(1) };
+        let rms_other = rms(&residual(&alt));
+        let likelihood_ratio = (data.len() - n_est) as f64 * (rms_other / last.rms_after).ln() * 2.0;
+        let fits_to_floor = baseline.misses_materially(rms_other.min(last.rms_after)).map(|misses| !misses);
+        let spread = Self {
+            law: law.name(),
+            law_cl: last.cl.estimate,
+            law_ci95: last.cl.ci95,
+            other: law.other().name(),
+            other_cl: cl.value,
+            other_ci95: [cl.ci95.0, cl.ci95.1],
+            likelihood_ratio,
+            told_apart: likelihood_ratio.abs() > chi2_99(1),
+            fits_to_floor,
+        };
         Some((spread, alt))
     }
 
@@ -60,13 +79,26 @@ impl BiasLawSpread {
         self.told_apart && self.likelihood_ratio < 0.0
     }
 
-    /// Cl and its CI95 to report, from the final law's `cl` and `ci95`.
-    pub fn reported(&self, cl: f64, [lo, hi]: [f64; 2]) -> (f64, [f64; 2]) {
-        match (self.told_apart, self.likelihood_ratio < 0.0) {
-            (true, false) => (cl, [lo, hi]),
-            (true, true) => (self.other_cl, self.other_ci95),
-            (false, _) => (cl, [lo.min(self.other_ci95[0]), hi.max(self.other_ci95[1])]),
+    /// The data says which shape the ceramic has: the laws told apart, and the better one
+    /// fitting to the floor (or no floor to judge by).
+    pub fn resolved(&self) -> bool {
+        self.told_apart && self.fits_to_floor != Some(false)
+    }
+
+    /// Cl and its CI95 to report, from the final law's `cl` and `ci95`: the other law's where
+    /// the data prefers it.
+    pub fn reported(&self, cl: f64, ci95: [f64; 2]) -> (f64, [f64; 2]) {
+        if self.prefers_other() { (self.other_cl, self.other_ci95) } else { (cl, ci95) }
+    }
+
+    /// The reported law's interval `ci95` (a finite one), spanning both laws' where the data
+    /// does not resolve the shape ([`Self::resolved`]): a type-B term, added after any
+    /// widening for the model error (the shape's spread is no statistical error to inflate).
+    pub fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
+        if self.resolved() || !(ci95[0] > 0.0 && ci95[1].is_finite()) {
+            return ci95;
         }
+        [ci95[0].min(self.law_ci95[0]).min(self.other_ci95[0]), ci95[1].max(self.law_ci95[1]).max(self.other_ci95[1])]
     }
 }
 
@@ -89,10 +121,20 @@ impl std::fmt::Display for BiasLawSpread {
     /// One sentence for people.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let other = format!("the {} bias law gives {:.4} µF", self.other, self.other_cl * 1e6);
-        match (self.told_apart, self.likelihood_ratio < 0.0) {
-            (true, false) => write!(f, "{other}, and the data prefers the {} (likelihood ratio {:.1})", self.law, self.likelihood_ratio),
-            (true, true) => write!(f, "{other}, which the data prefers (likelihood ratio {:.1}): its Cl and parameters are reported", -self.likelihood_ratio),
-            (false, _) => write!(f, "{other}; the data does not tell the laws apart, so the interval spans both"),
+        match (self.told_apart, self.resolved(), self.likelihood_ratio < 0.0) {
+            (true, true, false) => write!(f, "{other}, and the data prefers the {} (likelihood ratio {:.1})", self.law, self.likelihood_ratio),
+            (true, true, true) => write!(f, "{other}, which the data prefers (likelihood ratio {:.1}): its Cl and parameters are reported", -self.likelihood_ratio),
+            (true, false, false) => write!(
+                f,
+                "{other}; the data prefers the {} (likelihood ratio {:.1}), but its model still misses above the noise floor, so neither shape is the ceramic's and the interval spans both",
+                self.law, self.likelihood_ratio
+            ),
+            (true, false, true) => write!(
+                f,
+                "{other}, which the data prefers (likelihood ratio {:.1}): its Cl and parameters are reported; its model still misses above the noise floor, so neither shape is the ceramic's and the interval spans both",
+                -self.likelihood_ratio
+            ),
+            (false, ..) => write!(f, "{other}; the data does not tell the laws apart, so the interval spans both"),
         }
     }
 }

@@ -135,7 +135,8 @@ impl ClMove {
             scale(&mut check.model_ci95);
         }
         if let Some(law) = self.bias_law.as_mut() {
-            law.other_cl *= ratio;
+            (law.law_cl, law.other_cl) = (law.law_cl * ratio, law.other_cl * ratio);
+            scale(&mut law.law_ci95);
             scale(&mut law.other_ci95);
         }
         self.moved_from(cl_before);

@@ -375,11 +375,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
-    let mut preferred_circuit = None;
-    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout).map(|(spread, alt)| {
+    let (mut preferred_circuit, mut preferred_residual) = (None, None);
+    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout, &baseline).map(|(spread, alt)| {
         if spread.prefers_other() {
             select::at_final_values(&mut selected, &alt, nominal);
             preferred_circuit = Some(alt.fit.params);
+            preferred_residual = Some(effect::residual(&alt));
         }
         spread
     });
@@ -406,7 +407,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some((v, ratio)) = operating {
             last.cl.read_at(v, ratio, baseline.cl);
         }
-        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, &last.residual, last.rms_after);
+        // Judged by what the reported fit leaves (the other law's, where the data prefers it).
+        let left = preferred_residual.as_deref().unwrap_or(&last.residual);
+        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left, effect::rms(left));
+        if let Some(law) = last.cl.bias_law.as_ref() {
+            last.cl.ci95 = law.spanned(last.cl.ci95);
+        }
         (last.cl.ci95, cl_at_fidelity) = at_fidelity(last.cl.estimate, last.cl.ci95);
     } else {
         if let Some(check) = tested.0.as_mut() {
