@@ -943,9 +943,6 @@ mod tests {
         assert!(!estimator::validate::identified(ci), "{ci:?}");
     }
 
-    /// White residuals leave an interval alone; residuals coloured like a model error (AR(1),
-    /// ρ = 0.9: long-run over plain variance (1 + ρ)/(1 − ρ) = 19, less with the truncation)
-    /// widen it several times.
     /// A late reading closes il's gap against the nominal as it stands, or as the late fit
     /// calibrated the reading, whichever misses less. A "late" model whose zero error (−160 mA)
     /// only undoes its 90 ns delay closes nothing of a clean record's il (against the nominal
@@ -973,6 +970,9 @@ mod tests {
         assert!(closed.is_some_and(|c| c >= 95.0), "a true late reading closed {closed:?} %");
     }
 
+    /// White residuals leave an interval alone; residuals coloured like a model error (AR(1),
+    /// ρ = 0.9: long-run over plain variance (1 + ρ)/(1 − ρ) = 19, less with the truncation)
+    /// widen it several times.
     #[test]
     fn coloured_residuals_inflate_and_white_ones_do_not() {
         use rand::SeedableRng;

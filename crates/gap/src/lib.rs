@@ -394,8 +394,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
     if let Some(last) = selected.last_mut() {
+        // The model's miss is judged by what the reported fit leaves (the other law's, where
+        // the data prefers it).
+        let left = preferred_residual.as_deref().unwrap_or(&last.residual);
+        let rms_left = effect::rms(left);
         if let Some(check) = tested.0.as_mut() {
-            check.model_misses = baseline.misses_materially(last.rms_after).unwrap_or(false);
+            check.model_misses = baseline.misses_materially(rms_left).unwrap_or(false);
             last.cl.take_reported(check, baseline.cl);
         }
         (last.cl.check, last.cl.check_skipped) = tested;
@@ -407,9 +411,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some((v, ratio)) = operating {
             last.cl.read_at(v, ratio, baseline.cl);
         }
-        // Judged by what the reported fit leaves (the other law's, where the data prefers it).
-        let left = preferred_residual.as_deref().unwrap_or(&last.residual);
-        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left, effect::rms(left));
+        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left, rms_left);
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
