@@ -186,3 +186,14 @@ def test_an_off_fet_blocks_its_supply():
             for _ in range(6):
                 p = third.fet_params(rng, F, 1e-3, vth=F["vth"][0], ideal=ideal)
                 assert abs(third.drain_current(p, 0.0, 1.2 * F["U"])) < 1e-3, (family, ideal, p["eta"])
+
+
+def test_a_transient_past_its_time_limit_fails_clearly(monkeypatch):
+    # A transient that runs past NGSPICE_TIMEOUT is retried once at reltol 1e-3, then fails
+    # naming the limit (seed 2302 ran 37 min without finishing and held a scoring run).
+    monkeypatch.setattr(third, "NGSPICE_TIMEOUT", 0.05)
+    c = third.draw("thesis", "clean", 1)
+    c["warmup"] = 100
+    with pytest.raises(RuntimeError, match="timed out after 0.05 s at reltol 0.001"):
+        third.transient(c, np.full(200, 0.5))
+    assert c["notes"][-1] == "ngspice retried at reltol 1e-3"
