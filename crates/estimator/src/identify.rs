@@ -112,31 +112,52 @@ pub fn identify(data: &DataSet, nominal: &Params, opts: &IdentifyOptions) -> Res
                 }
         })
         .collect();
-    let mut candidates = Vec::new();
-    for &structure in &opts.structures {
+    let fit_from = |structure: Structure, cl_guess: Option<f64>| -> Result<Candidate, EstimatorError> {
         if structure == Structure::Simulated {
-            let mut start = *nominal;
-            if let Some(cl) = opts.cl_guess {
-                start.cl = cl;
-            }
-            candidates.push(crate::simulated::fit(data, &start, &opts.free, n_est)?);
-            continue;
+            let start = Params { cl: cl_guess.unwrap_or(nominal.cl), ..*nominal };
+            return crate::simulated::fit(data, &start, &opts.free, n_est);
         }
         let outs: Vec<Signal> = if structure == Structure::Reduced { vec![Signal::Vout] } else { outputs.clone() };
         let model = Model::new(structure, opts.sampling, &outs, &opts.free, &estimation, period)?;
-        let guess = opts.cl_guess.map(|cl| opts.free.iter().map(|f| if *f == Free::Cl { cl } else { f.get(nominal) }).collect());
+        let guess = cl_guess.map(|cl| opts.free.iter().map(|f| if *f == Free::Cl { cl } else { f.get(nominal) }).collect());
         let start = Instant::now();
         let fit = pem::fit(&model, nominal, &FitOptions { noise: opts.noise, guess, ..FitOptions::default() })?;
         let seconds = start.elapsed().as_secs_f64();
         let whole = Model::new(structure, opts.sampling, &outs, &opts.free, data, period)?;
         let validation = validate(&whole, &fit, data, n_est);
-        candidates.push(Candidate { structure, fit, validation, seconds });
+        Ok(Candidate { structure, fit, validation, seconds })
+    };
+    let mut candidates = Vec::new();
+    for &structure in &opts.structures {
+        let first = fit_from(structure, opts.cl_guess)?;
+        candidates.push(if opts.cl_guess.is_none() && opts.free.contains(&Free::Cl) { restarted(first, |cl| fit_from(structure, Some(cl)), nominal) } else { first });
     }
     candidates.sort_by(|a, b| {
         let score = |c: &Candidate| -c.validation.fit_prediction[0];
         score(a).total_cmp(&score(b))
     });
     Ok(Identification { candidates, estimation_samples: n_est, validation_samples: n - n_est, outputs })
+}
+
+/// Held-out simulation fit [%] at or below which a fit is refitted from every point of Cl's
+/// grid ([`restarted`]): a model that misses worse than the data's own mean (NRMSE ≥ 1).
+const RESTART_FIT_PERCENT: f64 = 0.0;
+
+/// The fit `first`, or, where it misses worse than the data's mean, the fit with the least
+/// estimation error of those started (`fit_from` a start value of Cl) from each point of Cl's
+/// grid ([`pem::CL_GRID`] times C). The fit ranks the grid on the first samples and starts from
+/// the best point alone: a clean 5 V point-of-load capture so ended at Cl 163 µF for 73
+/// (held-out fit −22 %, an interval of ±2.7 %).
+fn restarted(first: Candidate, fit_from: impl Fn(f64) -> Result<Candidate, EstimatorError>, nominal: &Params) -> Candidate {
+    if first.validation.fit_simulation[0] > RESTART_FIT_PERCENT {
+        return first;
+    }
+    let error = |c: &Candidate| c.fit.sigma.first().copied().unwrap_or(f64::INFINITY);
+    let better = pem::CL_GRID.iter().filter_map(|k| fit_from(k * nominal.c).ok()).min_by(|a, b| error(a).total_cmp(&error(b)));
+    match better {
+        Some(better) if error(&better) < error(&first) => better,
+        _ => first,
+    }
 }
 
 /// Runs the fitted model over all samples (so the held-out part starts from the state the

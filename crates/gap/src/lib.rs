@@ -23,7 +23,6 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::{IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
-use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -218,33 +217,6 @@ fn at_fidelity(cl: f64, [lo, hi]: [f64; 2]) -> ([f64; 2], bool) {
     ([lo.min(floor[0]), hi.max(floor[1])], lo > floor[0] || hi < floor[1])
 }
 
-/// Held-out NRMSE at or above which the nominal fit is refitted from every point of Cl's grid
-/// ([`restarted`]): a model that misses worse than the data's own mean.
-const RESTART_NRMSE: f64 = 1.0;
-
-/// The nominal fit `first`, or, where it misses worse than the data's mean, the fit with the
-/// least estimation error of those started from each point of Cl's grid
-/// ([`estimator::pem::CL_GRID`] times C). The fit ranks the grid on the first samples and
-/// starts from the best point alone; a 5 V point-of-load buck's nominal so ended at Cl 163 µF
-/// for 73 (held-out NRMSE 1.2), and every candidate effect "closed" its gap with a value of
-/// nothing (5 µΩ, 8 ps) by moving Cl.
-fn restarted(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, first: estimator::identify::Candidate) -> estimator::identify::Candidate {
-    if effect::held_out_nrmse(&first) < RESTART_NRMSE {
-        return first;
-    }
-    let error = |c: &estimator::identify::Candidate| c.fit.sigma.first().copied().unwrap_or(f64::INFINITY);
-    let structures = vec![first.structure];
-    let restarts = estimator::pem::CL_GRID
-        .par_iter()
-        .filter_map(|k| identify(data, nominal, &IdentifyOptions { cl_guess: Some(k * nominal.c), structures: structures.clone(), ..nominal_options(opts) }).ok())
-        .map(|id| id.best().clone())
-        .min_by(|a, b| error(a).total_cmp(&error(b)));
-    match restarts {
-        Some(better) if error(&better) < error(&first) => better,
-        _ => first,
-    }
-}
-
 /// Cl's leverage on the values the final model (the nominal with `selected`, at `circuit`
 /// where the bias law's other shape is preferred) holds at their nominal: `L`, `C`, `Rc`
 /// unless fitted ([`estimator::simulated::cl_leverage`]). `None` for an averaged model.
@@ -273,7 +245,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         Err(_) if opts.nominal == Nominal::Switched => identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?,
         fit => fit?,
     };
-    let base = restarted(data, nominal, opts, base.best().clone());
+    let base = base.best().clone();
     let residual = effect::residual(&base);
     let floor = estimator::noise::noise_floor_estimate(data);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
