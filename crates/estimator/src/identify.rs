@@ -4,6 +4,7 @@
 use std::time::Instant;
 
 use buck_model::Params;
+use rayon::prelude::*;
 
 use crate::data::DataSet;
 use crate::error::EstimatorError;
@@ -151,12 +152,13 @@ const RESTART_FIT_PERCENT: f64 = 0.0;
 /// spans the other magnitudes too, and restarting the diagnosis's grey-box candidates (which a
 /// synchronous model of a diode buck leaves worse than the mean) changed no finding on the
 /// bench's 83 sets for +10 % of its time (+0.4 s on a diode buck).
-fn restarted(first: Candidate, fit_from: impl Fn(f64) -> Result<Candidate, EstimatorError>, nominal: &Params) -> Candidate {
+fn restarted(first: Candidate, fit_from: impl Fn(f64) -> Result<Candidate, EstimatorError> + Sync, nominal: &Params) -> Candidate {
     if first.validation.fit_simulation[0] > RESTART_FIT_PERCENT {
         return first;
     }
     let error = |c: &Candidate| c.fit.sigma.first().copied().unwrap_or(f64::INFINITY);
-    let better = pem::CL_GRID.iter().filter_map(|k| fit_from(k * nominal.c).ok()).min_by(|a, b| error(a).total_cmp(&error(b)));
+    // In parallel: the plant simulator's fits (deep DCM's nominal) take a good part of a second.
+    let better = pem::CL_GRID.par_iter().filter_map(|k| fit_from(k * nominal.c).ok()).min_by(|a, b| error(a).total_cmp(&error(b)));
     match better {
         Some(better) if error(&better) < error(&first) => better,
         _ => first,
