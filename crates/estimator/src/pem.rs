@@ -307,7 +307,7 @@ const GRID_SAMPLES: usize = 1000;
 /// Grid of start values for Cl as multiples of the main capacitance C, log-spaced a half decade
 /// apart (0.1–300 µF beside the thesis's 100 µF): a load capacitance is judged against the
 /// converter's own output capacitance, at any scale.
-pub const CL_GRID: [f64; 8] = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
+pub(crate) const CL_GRID: [f64; 8] = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
 
 /// Factors on the start value of each free parameter other than Cl tried with the Cl grid (a
 /// series resistance or a drifted L, C, Rc starts from its nominal value, which can be far).

@@ -339,7 +339,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
     // its variance grows by). One that misses grossly identifies no Cl at all. The interval
     // so judged, the widening factor and the gross miss's multiple of the floor.
-    let judged_by_miss = |cl: f64, ci95: [f64; 2], residual: &[f64], rms: f64| {
+    let judged_by_miss = |cl: f64, ci95: [f64; 2], residual: &[f64]| {
+        let rms = effect::rms(residual);
         let widened = baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt());
         let gross = effect::gross_miss(rms, baseline.floor);
         let ci95 = if gross.is_some() { [0.0, f64::INFINITY] } else { widened.map_or(ci95, |k| effect::widen(cl, ci95, k)) };
@@ -369,9 +370,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
         let left = preferred_residual.as_deref().unwrap_or(&last.residual);
-        let rms_left = effect::rms(left);
         if let Some(check) = tested.0.as_mut() {
-            check.model_misses = baseline.misses_materially(rms_left).unwrap_or(false);
+            check.model_misses = baseline.misses_materially(effect::rms(left)).unwrap_or(false);
             last.cl.take_reported(check, baseline.cl);
         }
         (last.cl.check, last.cl.check_skipped) = tested;
@@ -383,7 +383,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some((v, ratio)) = operating {
             last.cl.read_at(v, ratio, baseline.cl);
         }
-        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left, rms_left);
+        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left);
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
@@ -394,7 +394,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             (cl, cl_ci95) = check.reported();
         }
         (cl_check, cl_check_skipped) = tested;
-        (cl_ci95, cl_widened_by, cl_misses_by_floors) = judged_by_miss(cl, cl_ci95, &residual, baseline.rms);
+        (cl_ci95, cl_widened_by, cl_misses_by_floors) = judged_by_miss(cl, cl_ci95, &residual);
         (cl_ci95, cl_at_fidelity) = at_fidelity(cl, cl_ci95);
     }
     // The verdict's entry in the table carries the same test when it is the final model.
