@@ -178,6 +178,9 @@ struct Excitation {
 #[derive(Debug, Serialize)]
 struct Output {
     cl: Interval,
+    /// How Cl's interval was tested, for data from a file (see [`gap::TestedCl`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cl_test: Option<ClTest>,
     fit_percent: FitPercent,
     model: &'static str,
     samples: usize,
@@ -235,6 +238,14 @@ fn estimated(c: &estimator::identify::Candidate, free: &[Free]) -> BTreeMap<&'st
         .collect()
 }
 
+/// The test of Cl's interval on a circuit's data: a sentence, and the test's parts.
+#[derive(Debug, Serialize)]
+struct ClTest {
+    sentence: String,
+    #[serde(flatten)]
+    tested: gap::TestedCl,
+}
+
 #[derive(Debug, Serialize)]
 struct Interval {
     estimate: f64,
@@ -269,6 +280,11 @@ struct CandidateOut {
 fn interval(c: &estimator::identify::Candidate) -> Interval {
     let e = c.fit.estimate("Cl").copied().unwrap_or(estimator::pem::Estimate { name: "Cl", value: f64::NAN, ci95: (f64::NAN, f64::NAN), rel_std: f64::NAN });
     Interval { estimate: e.value, ci95: [e.ci95.0, e.ci95.1], rel_std: e.rel_std }
+}
+
+/// Cl's tested interval, its relative standard deviation read from the interval's log width.
+fn tested_interval(t: &gap::TestedCl) -> Interval {
+    Interval { estimate: t.cl.estimate, ci95: t.cl.ci95, rel_std: (t.cl.ci95[1] / t.cl.ci95[0]).ln() / (2.0 * estimator::validate::Z_975) }
 }
 
 fn fit_percent(c: &estimator::identify::Candidate) -> FitPercent {
@@ -332,6 +348,11 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     };
     eprintln!("fitting {} samples", data.len());
     let id = identify(&data, &nominal, &opts)?;
+    // Data from a file is a circuit's (SPICE or a bench), which the model only approximates: a
+    // fit of Cl alone has its interval tested as the diagnosis tests its own. An FMU's recording
+    // is a model's, of known fidelity only when it is this one's, so its interval stays the
+    // fit's.
+    let tested = (args.fmu.is_none() && opts.free == [Free::Cl]).then(|| gap::tested_cl(&data, &nominal, id.best(), id.estimation_samples));
     let excitation = args.fmu.as_ref().map(|_| {
         let levels = excitation_levels(args);
         Excitation {
@@ -342,7 +363,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             load_noise: args.load_noise,
         }
     });
-    print_summary(&id, &source);
+    print_summary(&id, tested.as_ref(), &source);
     let excitation_text = excitation.as_ref().map(|e| {
         format!(
             "{} loop: PRBS {}/{} on {}, duty recorded from {}{}",
@@ -357,7 +378,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     if let Some(text) = &excitation_text {
         println!("excitation  {text}");
     }
-    let mut out = output(&id, &nominal, &assumed, &source, experiment_seconds, opts.noise);
+    let mut out = output(&id, tested.as_ref(), &nominal, &assumed, &source, experiment_seconds, opts.noise);
     out.estimated = estimated(id.best(), &opts.free);
     for (name, e) in &out.estimated {
         println!("{name:11} {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)));
@@ -373,18 +394,19 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             .map(|a| format!("assumed: {a}"))
             .chain(out.estimated.iter().map(|(name, e)| format!("estimated with Cl: {name} = {}", with_ci(e.estimate, Some(e.ci95), unit_of(name)))))
             .collect();
-        let ctx = crate::report::identify::Context { source: &source, excitation: excitation_text.as_deref(), circuit: &circuit, noise_floor: gap::noise_floor(&data) };
+        let ctx = crate::report::identify::Context { source: &source, excitation: excitation_text.as_deref(), circuit: &circuit, noise_floor: gap::noise_floor(&data), cl_test: tested.as_ref() };
         let file = crate::report::identify::write(dir, &id, &nominal, &ctx)?;
         eprintln!("wrote {}", file.display());
     }
     Ok(())
 }
 
-fn output(id: &Identification, nominal: &Params, assumed: &[String], source: &str, experiment_seconds: Option<f64>, noise: NoiseModel) -> Output {
+fn output(id: &Identification, tested: Option<&gap::TestedCl>, nominal: &Params, assumed: &[String], source: &str, experiment_seconds: Option<f64>, noise: NoiseModel) -> Output {
     let best = id.best();
     let r = &best.validation.residuals;
     Output {
-        cl: interval(best),
+        cl: tested.map_or_else(|| interval(best), tested_interval),
+        cl_test: tested.map(|t| ClTest { sentence: t.sentence(), tested: t.clone() }),
         fit_percent: fit_percent(best),
         model: best.structure.name(),
         samples: id.estimation_samples,
@@ -414,16 +436,21 @@ fn output(id: &Identification, nominal: &Params, assumed: &[String], source: &st
     }
 }
 
-fn print_summary(id: &Identification, source: &str) {
+fn print_summary(id: &Identification, tested: Option<&gap::TestedCl>, source: &str) {
     let best = id.best();
-    let i = interval(best);
+    let i = tested.map_or_else(|| interval(best), tested_interval);
     let f = fit_percent(best);
     println!("source      {source}");
     println!("model       {} ({} estimation + {} held-out samples)", best.structure.name(), id.estimation_samples, id.validation_samples);
     if identified(i.ci95) {
         println!("Cl          {:.4} µF   95 % CI [{:.4}, {:.4}] µF   (±{:.2} %)", i.estimate * 1e6, i.ci95[0] * 1e6, i.ci95[1] * 1e6, 196.0 * i.rel_std);
+    } else if let Some(k) = tested.and_then(|t| t.cl.misses_by_floors) {
+        println!("Cl          not identified: the model misses vout by {k:.1}× its noise floor (`buckid diagnose` tells what it lacks); the fit says {:.4} µF", i.estimate * 1e6);
     } else {
         println!("Cl          not identified: the data does not pin it down (CI95 {} … {})", si(i.ci95[0], "F", 2), si(i.ci95[1], "F", 2));
+    }
+    if let Some(t) = tested {
+        println!("interval    tested on a circuit's data: {}", t.sentence());
     }
     println!("held-out    fit {:.2} % simulation, {:.2} % one-step prediction", f.simulation, f.prediction);
     let r = &best.validation.residuals;

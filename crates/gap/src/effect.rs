@@ -96,6 +96,30 @@ pub struct ClMove {
 }
 
 impl ClMove {
+    /// A sentence on the interval's test: the test against the high-pass refit (or why it was
+    /// not made), the bias law's spread, the operating point Cl is read at, the widening for
+    /// model error, a gross miss, and whether the interval was held to the circuit model's
+    /// fidelity (`at_fidelity`, see [`crate::CL_FIDELITY`]).
+    pub(crate) fn sentence(&self, at_fidelity: bool) -> String {
+        let mut test = self.check.as_ref().map_or_else(|| format!("interval not tested: {}", self.check_skipped.as_deref().unwrap_or_default()), ToString::to_string);
+        if let Some(law) = &self.bias_law {
+            test += &format!("; {law}");
+        }
+        if let Some(v) = self.operating_point {
+            test += &format!("; read at the operating point, the time-averaged vout of {v:.3} V (the samples' mean is one phase of the ripple)");
+        }
+        if let Some(k) = self.widened_by {
+            test += &format!("; widened ×{k:.2} for the model error the residual still shows");
+        }
+        if let Some(k) = self.misses_by_floors {
+            test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
+        }
+        if at_fidelity {
+            test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * crate::CL_FIDELITY);
+        }
+        test
+    }
+
     /// Cl of `cand` against the nominal fit's `cl_before` (NaN where `cand` has no Cl).
     pub(crate) fn of(cand: &Candidate, cl_before: f64) -> Self {
         let cl = cand.fit.estimate("Cl");
@@ -103,7 +127,7 @@ impl ClMove {
     }
 
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
-    fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
+    pub(crate) fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
         let mut cl = Self { estimate, ci95, moved_percent: f64::NAN, check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None };
         cl.moved_from(cl_before);
         cl
@@ -478,6 +502,35 @@ impl Baseline {
     /// ([`gap_material`]); `None` without a floor.
     pub(crate) fn misses_materially(&self, rms: f64) -> Option<bool> {
         self.floor.map(|f| gap_material(rms, self.held_out, f, self.floor_samples))
+    }
+
+    /// The baseline of the nominal's fit `base` on `data` (its first `n_est` samples for
+    /// estimation), with drifts within `tolerance` no finding.
+    pub(crate) fn of(data: &DataSet, base: &Candidate, n_est: usize, tolerance: f64) -> Self {
+        let floor = estimator::noise::noise_floor_estimate(data);
+        Self {
+            nrmse: held_out_nrmse(base),
+            rms: rms(&residual(base)),
+            cl: base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value),
+            floor: floor.map(|f| f.0),
+            floor_samples: floor.map_or(0, |f| f.1),
+            held_out: data.len() - n_est,
+            tolerance,
+        }
+    }
+
+    /// Cl's interval `ci95` around `cl` judged by what a model leaves, `residual`: a model that
+    /// still misses materially above the floor leaves its error in the residual, coloured, and
+    /// the interval is widened by the square root of the residual's long-run variance over its
+    /// variance (Cl's sensitivity is smooth, so that is the factor its variance grows by); one
+    /// that misses grossly identifies no Cl at all. The interval so judged, the widening factor
+    /// and the gross miss's multiple of the floor.
+    pub(crate) fn judged_by_miss(&self, cl: f64, ci95: [f64; 2], residual: &[f64]) -> ([f64; 2], Option<f64>, Option<f64>) {
+        let rms = rms(residual);
+        let widened = self.misses_materially(rms).unwrap_or(false).then(|| model_error_inflation(residual).sqrt());
+        let gross = gross_miss(rms, self.floor);
+        let ci95 = if gross.is_some() { [0.0, f64::INFINITY] } else { widened.map_or(ci95, |k| widen(cl, ci95, k)) };
+        (ci95, widened, gross)
     }
 }
 

@@ -18,10 +18,11 @@ mod locate;
 mod options;
 mod quantization;
 mod select;
+mod tested;
 
 use buck_model::Params;
 use estimator::data::DataSet;
-use estimator::identify::{IdentifyOptions, identify};
+use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -33,6 +34,7 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
+pub use tested::{CL_FIDELITY, TestedCl, tested_cl};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -88,6 +90,41 @@ pub struct Before {
     /// [`effect::GROSS_MISS_FLOORS`] noise floors: that multiple (Cl not identified).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_misses_by_floors: Option<f64>,
+    /// The nominal's tested Cl, when the verdict is `none` (the fields above, whole).
+    #[serde(skip)]
+    tested: Option<ClMove>,
+}
+
+impl Before {
+    /// The nominal's fit `base` with its own Cl interval `base_cl`, or, when the verdict is
+    /// `none`, its Cl `tested`.
+    fn of(base: &Candidate, baseline: &effect::Baseline, base_cl: [f64; 2], tested: Option<TestedCl>) -> Self {
+        let before = Self {
+            model: base.structure.name(),
+            nrmse: baseline.nrmse,
+            rms: baseline.rms,
+            cl: baseline.cl,
+            cl_ci95: base_cl,
+            cl_check: None,
+            cl_check_skipped: None,
+            cl_widened_by: None,
+            cl_misses_by_floors: None,
+            tested: None,
+        };
+        match tested.map(|t| t.cl) {
+            Some(t) => Self {
+                cl: t.estimate,
+                cl_ci95: t.ci95,
+                cl_check: t.check.clone(),
+                cl_check_skipped: t.check_skipped.clone(),
+                cl_widened_by: t.widened_by,
+                cl_misses_by_floors: t.misses_by_floors,
+                tested: Some(t),
+                ..before
+            },
+            None => before,
+        }
+    }
 }
 
 /// Result of [`diagnose`].
@@ -135,35 +172,15 @@ impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
     /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let (cl, ci95, check, skipped, widened, law, gross) = match self.selected.last() {
-            Some(e) => (e.cl.estimate, e.cl.ci95, e.cl.check.as_ref(), e.cl.check_skipped.as_deref(), e.cl.widened_by, e.cl.bias_law.as_ref(), e.cl.misses_by_floors),
-            None => (
-                self.gap_before.cl,
-                self.gap_before.cl_ci95,
-                self.gap_before.cl_check.as_ref(),
-                self.gap_before.cl_check_skipped.as_deref(),
-                self.gap_before.cl_widened_by,
-                None,
-                self.gap_before.cl_misses_by_floors,
-            ),
+        let nominal;
+        let cl = match self.selected.last() {
+            Some(e) => &e.cl,
+            None => {
+                nominal = self.gap_before.tested.clone().unwrap_or_else(|| ClMove::at(self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl));
+                &nominal
+            }
         };
-        let mut test = check.map_or_else(|| format!("interval not tested: {}", skipped.unwrap_or_default()), ToString::to_string);
-        if let Some(law) = law {
-            test += &format!("; {law}");
-        }
-        if let Some(v) = self.selected.last().and_then(|e| e.cl.operating_point) {
-            test += &format!("; read at the operating point, the time-averaged vout of {v:.3} V (the samples' mean is one phase of the ripple)");
-        }
-        if let Some(k) = widened {
-            test += &format!("; widened ×{k:.2} for the model error the residual still shows");
-        }
-        if let Some(k) = gross {
-            test += &format!("; not identified: the final model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
-        }
-        if self.cl_at_fidelity {
-            test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * CL_FIDELITY);
-        }
-        (cl, ci95, test)
+        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity))
     }
 
     /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
@@ -199,24 +216,6 @@ fn bias_reference(nominal: &Params, data: &DataSet) -> Params {
     Params { cap_rated_voltage: top, cl_reference_voltage: mean.min(top), ..*nominal }
 }
 
-/// Relative half-width below which Cl's CI95 is not reported: the fidelity of a circuit model
-/// to a converter. The third generator's ever-present parasitics (a decoupling capacitor, the
-/// hot loop, a feedback divider) move its Cl by 1e-4 to 3e-4, which a white residual at the
-/// floor cannot show (clean point-of-load captures were 0.0004–0.02 % off with intervals of
-/// ±0.0005–0.01 %); and with a leverage of 2–6 on L (`cl_leverage`), Cl to 0.1 % already asks
-/// L to 0.02 %.
-pub const CL_FIDELITY: f64 = 1e-3;
-
-/// `ci95` around `cl` widened to at least ±[`CL_FIDELITY`] (`cl/(1 + f)` to `cl·(1 + f)`), and
-/// whether it was; an interval that identifies nothing stays as it is.
-fn at_fidelity(cl: f64, [lo, hi]: [f64; 2]) -> ([f64; 2], bool) {
-    if !(cl > 0.0 && lo > 0.0 && hi.is_finite()) {
-        return ([lo, hi], false);
-    }
-    let floor = [cl / (1.0 + CL_FIDELITY), cl * (1.0 + CL_FIDELITY)];
-    ([lo.min(floor[0]), hi.max(floor[1])], lo > floor[0] || hi < floor[1])
-}
-
 /// Cl's leverage on the values the final model (the nominal with `selected`, at `circuit`
 /// where the bias law's other shape is preferred) holds at their nominal: `L`, `C`, `Rc`
 /// unless fitted ([`estimator::simulated::cl_leverage`]). `None` for an averaged model.
@@ -247,17 +246,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let base = base.best().clone();
     let residual = effect::residual(&base);
-    let floor = estimator::noise::noise_floor_estimate(data);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
-    let baseline = effect::Baseline {
-        nrmse: effect::held_out_nrmse(&base),
-        rms: effect::rms(&residual),
-        cl: base.fit.estimate("Cl").map_or(f64::NAN, |e| e.value),
-        floor: floor.map(|f| f.0),
-        floor_samples: floor.map_or(0, |f| f.1),
-        held_out: data.len() - n_est,
-        tolerance: opts.tolerance,
-    };
+    let baseline = effect::Baseline::of(data, &base, n_est, opts.tolerance);
     let candidates::Fitted { mut effects, not_tested, switched } = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
     // The first step: the finding (significant, material, outside tolerance) with the lowest
@@ -332,20 +322,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
-    let (mut cl, mut cl_ci95, mut cl_check, mut cl_check_skipped, mut cl_widened_by, mut cl_misses_by_floors) = (baseline.cl, base_cl, None, None, None, None);
-    let cl_at_fidelity;
-    // A final model that still misses materially above the floor leaves its error in the
-    // residual, coloured: its Cl interval is widened by the square root of the residual's
-    // long-run variance over its variance (Cl's sensitivity is smooth, so that is the factor
-    // its variance grows by). One that misses grossly identifies no Cl at all. The interval
-    // so judged, the widening factor and the gross miss's multiple of the floor.
-    let judged_by_miss = |cl: f64, ci95: [f64; 2], residual: &[f64]| {
-        let rms = effect::rms(residual);
-        let widened = baseline.misses_materially(rms).unwrap_or(false).then(|| effect::model_error_inflation(residual).sqrt());
-        let gross = effect::gross_miss(rms, baseline.floor);
-        let ci95 = if gross.is_some() { [0.0, f64::INFINITY] } else { widened.map_or(ci95, |k| effect::widen(cl, ci95, k)) };
-        (ci95, widened, gross)
-    };
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
     let (mut preferred_circuit, mut preferred_residual) = (None, None);
@@ -366,7 +342,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
-    if let Some(last) = selected.last_mut() {
+    let (nominal_cl, cl_at_fidelity) = if let Some(last) = selected.last_mut() {
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
         let left = preferred_residual.as_deref().unwrap_or(&last.residual);
@@ -383,20 +359,18 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some((v, ratio)) = operating {
             last.cl.read_at(v, ratio, baseline.cl);
         }
-        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = judged_by_miss(last.cl.estimate, last.cl.ci95, left);
+        (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = baseline.judged_by_miss(last.cl.estimate, last.cl.ci95, left);
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
-        (last.cl.ci95, cl_at_fidelity) = at_fidelity(last.cl.estimate, last.cl.ci95);
+        let at_fidelity;
+        (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95);
+        (None, at_fidelity)
     } else {
-        if let Some(check) = tested.0.as_mut() {
-            check.model_misses = baseline.misses_materially(baseline.rms).unwrap_or(false);
-            (cl, cl_ci95) = check.reported();
-        }
-        (cl_check, cl_check_skipped) = tested;
-        (cl_ci95, cl_widened_by, cl_misses_by_floors) = judged_by_miss(cl, cl_ci95, &residual);
-        (cl_ci95, cl_at_fidelity) = at_fidelity(cl, cl_ci95);
-    }
+        let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual);
+        let at_fidelity = judged.at_fidelity;
+        (Some(judged), at_fidelity)
+    };
     // The verdict's entry in the table carries the same test when it is the final model.
     if let [only] = selected.as_slice()
         && let Some(e) = effects.iter_mut().find(|e| e.name == only.name)
@@ -414,7 +388,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let after = selected.last().map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };
     Ok(Diagnosis {
-        gap_before: Before { model: base.structure.name(), nrmse: baseline.nrmse, rms: baseline.rms, cl, cl_ci95, cl_check, cl_check_skipped, cl_widened_by, cl_misses_by_floors },
+        gap_before: Before::of(&base, &baseline, base_cl, nominal_cl),
         location,
         effects,
         not_tested,
@@ -427,22 +401,4 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         nominal: opts.nominal,
         traces,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// An interval narrower than the model's fidelity is widened to it around the estimate; a
-    /// wider one, or one that identifies nothing, stays as it is.
-    #[test]
-    fn cls_interval_is_held_to_the_models_fidelity() {
-        let (ci, widened) = at_fidelity(10e-6, [9.9995e-6, 10.0003e-6]);
-        assert!(widened && (ci[0] - 10e-6 / 1.001).abs() < 1e-15 && (ci[1] - 10.01e-6).abs() < 1e-15, "{ci:?}");
-        // One side already wider: kept.
-        let (ci, widened) = at_fidelity(10e-6, [9.9e-6, 10.0003e-6]);
-        assert!(widened && ci[0] == 9.9e-6 && (ci[1] - 10.01e-6).abs() < 1e-15, "{ci:?}");
-        assert_eq!(at_fidelity(10e-6, [9e-6, 11e-6]), ([9e-6, 11e-6], false));
-        assert_eq!(at_fidelity(10e-6, [0.0, f64::INFINITY]), ([0.0, f64::INFINITY], false));
-    }
 }

@@ -26,6 +26,8 @@ pub struct Context<'a> {
     pub circuit: &'a [String],
     /// White sensor noise on `vout` from the data alone (`gap::noise_floor`) [V], if found.
     pub noise_floor: Option<f64>,
+    /// Cl's tested interval, for data from a file (`gap::tested_cl`).
+    pub cl_test: Option<&'a gap::TestedCl>,
 }
 
 /// Writes `index.html` and the figures into `dir` and returns the page's path.
@@ -82,8 +84,10 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
     let ccf = correlation("Cross-correlation of the residual with the duty", "CCF", super::plot::GREEN, r.ccf.iter().enumerate().map(|(i, c)| (i as f64 - LAGS as f64, *c)).collect());
 
     let freqs: Vec<f64> = (0..200).map(|i| 100.0 * (nominal.fs / 2.0 / 100.0).powf(i as f64 / 199.0)).collect();
-    let cl = best.fit.estimate("Cl");
-    let (cl_value, ci) = cl.map_or((f64::NAN, [f64::NAN; 2]), |e| (e.value, [e.ci95.0, e.ci95.1]));
+    let (cl_value, ci) = match ctx.cl_test {
+        Some(t) => (t.cl.estimate, t.cl.ci95),
+        None => best.fit.estimate("Cl").map_or((f64::NAN, [f64::NAN; 2]), |e| (e.value, [e.ci95.0, e.ci95.1])),
+    };
     let bode_of = |cl: f64| -> Vec<(f64, f64)> {
         let p = Params { cl, ..*nominal };
         freqs.iter().zip(frequency_response(&p, 12.0, &freqs)).map(|(f, g)| (*f, 20.0 * g.norm().log10())).collect()
@@ -94,7 +98,7 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
         panels: vec![Panel {
             caption: String::new(),
             y: Axis::linear("magnitude", "dB"),
-            bands: vec![Band { name: "CI95 of the fitted Cl".into(), color: RED, lower: bode_of(ci[0]), upper: bode_of(ci[1]) }],
+            bands: if estimator::validate::identified(ci) { vec![Band { name: "CI95 of the fitted Cl".into(), color: RED, lower: bode_of(ci[0]), upper: bode_of(ci[1]) }] } else { Vec::new() },
             lines: vec![
                 Line { name: format!("nominal Cl = {}", si(nominal.cl, "F", 3)), color: GREY, mark: Mark::Dashed, points: bode_of(nominal.cl) },
                 Line { name: format!("fitted Cl = {}", with_ci(cl_value, Some(ci), "F")), color: RED, mark: Mark::Solid, points: bode_of(cl_value) },
@@ -120,6 +124,9 @@ pub fn write(dir: &Path, id: &Identification, nominal: &Params, ctx: &Context<'_
         .collect();
     let mut page = Page::new("buckid identify", "Load capacitance identification");
     page.html(&format!("<p class=\"result\"><b>Cl = {}</b> ({} model).</p>", esc(&with_ci(cl_value, Some(ci), "F")), best.structure.name()));
+    if let Some(t) = ctx.cl_test {
+        page.html(&format!("<p>The interval, tested on a circuit's data: {}.</p>", esc(&si_text(&t.sentence()))));
+    }
     page.html(&format!(
         "<p>Source: <code>{}</code>.{} {} estimation and {} held-out samples. Chosen model: <b>{}</b> (best held-out one-step prediction).
 Residuals {} white (Ljung–Box {} vs {} at 99 %), {} of the input ({} vs {}).</p>",
