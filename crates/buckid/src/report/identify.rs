@@ -142,7 +142,7 @@ Residuals {} white (Ljung–Box {} vs {} at 99 %), {} of the input ({} vs {}).</
         si(r.ccf_statistic, "", 3),
         si(r.ccf_limit, "", 3),
     ));
-    page.html(&table(&["model", "Cl (CI95)", "held-out fit, simulation", "held-out fit, 1-step prediction", "fit time"], &rows));
+    page.html(&table(&["model", "Cl (the fit's own CI95)", "held-out fit, simulation", "held-out fit, 1-step prediction", "fit time"], &rows));
     if !ctx.circuit.is_empty() {
         let items: String = ctx.circuit.iter().map(|c| format!("<li>{}</li>", esc(&si_text(c)))).collect();
         page.html(&format!("<h2>Circuit values</h2><ul>{items}</ul>"));
