@@ -56,13 +56,14 @@ def paths(out, family, kind, j):
 
 def generate_one(args):
     """Generate one case (in a worker); returns (stem, seconds, error)."""
-    family, kind, j, seed, out, periods = args
+    family, kind, j, seed, out, periods, noise_scale = args
     csv, truth, _, _ = paths(out, family, kind, j)
     if os.path.exists(csv) and os.path.exists(truth):
         return csv, 0.0, None
     clock = time.perf_counter()
     proc = subprocess.run([sys.executable, os.path.join(HERE, "third.py"), "--family", family, "--case", kind,
                            "--seed", str(case_seed(seed, j)), "--periods", str(periods),
+                           "--noise-scale", repr(noise_scale),
                            "--out", csv + ".tmp", "--truth", truth + ".tmp"],
                           capture_output=True, text=True)
     if proc.returncode != 0:
@@ -184,6 +185,8 @@ def main(argv=None):
     p.add_argument("--kinds", default="clean,single,several")
     p.add_argument("--jobs", type=int, default=2, help="parallel generations (diagnoses run one at a time)")
     p.add_argument("--periods", type=int, default=3001)
+    p.add_argument("--noise-scale", type=float, default=1.0,
+                   help="scale every case's drawn sensor noise (0.1: a quiet bench)")
     p.add_argument("--buckid", default=os.path.join(ROOT, "target", "release", "buckid"))
     p.add_argument("--nominal", choices=("switched", "averaged", "default"), default="switched",
                    help="the diagnosis's nominal model (default: none named, the CLI chooses)")
@@ -191,7 +194,7 @@ def main(argv=None):
     os.makedirs(a.out, exist_ok=True)
     families = [f for f in a.families.split(",") if f]
     kinds = [k for k in a.kinds.split(",") if k]
-    jobs = [(f, k, j, a.seed, a.out, a.periods) for f in families for k in kinds for j in range(a.per_kind)]
+    jobs = [(f, k, j, a.seed, a.out, a.periods, a.noise_scale) for f in families for k in kinds for j in range(a.per_kind)]
     gen_err, gen_time = {}, {}
     clock = time.perf_counter()
     with cf.ProcessPoolExecutor(max_workers=max(1, a.jobs)) as pool:

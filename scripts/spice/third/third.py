@@ -1436,6 +1436,14 @@ def simulate(c, duty, workdir=None):
                 vout_mean=vmean, il_mean=imean)
 
 
+def quieter(c, scale):
+    """Case ``c`` with its sensor noise (vout and il) scaled by ``scale`` > 0, all else as drawn."""
+    if not scale > 0:
+        raise ValueError(f"noise scale {scale} must be positive")
+    acq = dict(c["acq"], noise_v=c["acq"]["noise_v"] * scale, noise_i=c["acq"]["noise_i"] * scale)
+    return dict(c, acq=acq)
+
+
 def _public(c):
     """The case without its private working fields (JSON-safe)."""
     return {k: v for k, v in c.items() if not k.startswith("_")}
@@ -1508,6 +1516,8 @@ def parser():
     add("--seed", type=int, default=1)
     add("--effect", choices=SINGLE_EFFECTS, help="the effect of a --case single (default: drawn)")
     add("--no-il", action="store_true", help="omit the il column (a vout-only capture)")
+    add("--noise-scale", type=float, default=1.0,
+        help="scale the drawn sensor noise (0.1: a bench ten times quieter, e.g. an averaging scope)")
     add("--periods", type=int, default=3001)
     add("--out", default="-", help="CSV file ('-' = stdout)")
     add("--truth", help="JSON file with everything the run used")
@@ -1518,6 +1528,7 @@ def parser():
 def main(argv=None):
     a = parser().parse_args(argv)
     c = draw(a.family, a.kind, a.seed, effect=a.effect, with_il=False if a.no_il else None)
+    c = quieter(c, a.noise_scale)
     text, truth = generate(c, a.periods, a.workdir)
     if a.out == "-":
         sys.stdout.write(text)
