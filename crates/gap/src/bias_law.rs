@@ -38,7 +38,7 @@ pub struct BiasLawSpread {
     pub likelihood_ratio: f64,
     /// The data tells the laws apart (the ratio beyond its 1 % point either way).
     pub told_apart: bool,
-    /// The better law's model leaves no material miss above the noise floor (`None`: no floor
+    /// The better law's model leaves no miss above the noise floor (`None`: no floor
     /// to judge by): its shape is taken for the ceramic's, and its Cl is reported alone where
     /// the laws are told apart.
     pub fits_to_floor: Option<bool>,
@@ -59,7 +59,7 @@ impl BiasLawSpread {
         let cl = alt.fit.estimate("Cl")?;
         let rms_other = rms(&residual(&alt));
         let likelihood_ratio = (data.len() - n_est) as f64 * (rms_other / last.rms_after).ln() * 2.0;
-        let fits_to_floor = baseline.misses_materially(rms_other.min(last.rms_after)).map(|misses| !misses);
+        let fits_to_floor = baseline.misses_above_floor(rms_other.min(last.rms_after)).map(|misses| !misses);
         let spread = Self {
             law: law.name(),
             law_cl: last.cl.estimate,

@@ -82,7 +82,7 @@ pub struct Before {
     /// Why it was not made, when the verdict is `none`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_check_skipped: Option<String>,
-    /// When the verdict is `none` but the nominal still misses materially: the factor the
+    /// When the verdict is `none` but the nominal still misses above the floor: the factor the
     /// interval's log half-widths were widened by (see [`model_error_inflation`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_widened_by: Option<f64>,
@@ -347,7 +347,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // the data prefers it).
         let left = preferred_residual.as_deref().unwrap_or(&last.residual);
         if let Some(check) = tested.0.as_mut() {
-            check.model_misses = baseline.misses_materially(effect::rms(left)).unwrap_or(false);
+            check.model_misses = baseline.misses_above_floor(effect::rms(left)).unwrap_or(false);
             last.cl.take_reported(check, baseline.cl);
         }
         (last.cl.check, last.cl.check_skipped) = tested;

@@ -536,10 +536,10 @@ pub(crate) fn for_cl(
     baseline: &Baseline,
     test: impl Fn(&[&EffectFit], f64, [f64; 2]) -> Option<ClCheck> + Sync,
 ) -> Option<String> {
-    // Only where vout shows nothing more: a model that still misses materially has had its
+    // Only where vout shows nothing more: a model that still misses above the floor has had its
     // material effects tried, and what moves Cl there is the miss itself (widened for).
     let rms_left = selected.last().map_or(baseline.rms, |e| e.rms_after);
-    if selected.len() >= MAX_EFFECTS || baseline.misses_materially(rms_left) != Some(false) {
+    if selected.len() >= MAX_EFFECTS || baseline.misses_above_floor(rms_left) != Some(false) {
         return None;
     }
     let cl = selected.last().map_or(baseline.cl, |e| e.cl.estimate);

@@ -55,7 +55,7 @@ impl TestedCl {
         let mut judged = ClMove::at(cl, ci95, cl);
         (judged.check, judged.check_skipped) = tested;
         if let Some(check) = judged.check.as_mut() {
-            check.model_misses = baseline.misses_materially(effect::rms(residual)).unwrap_or(false);
+            check.model_misses = baseline.misses_above_floor(effect::rms(residual)).unwrap_or(false);
             (judged.estimate, judged.ci95) = check.reported();
             judged.moved_from(cl);
         }
