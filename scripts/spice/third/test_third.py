@@ -197,3 +197,15 @@ def test_a_transient_past_its_time_limit_fails_clearly(monkeypatch):
     with pytest.raises(RuntimeError, match="timed out after 0.05 s at reltol 0.001"):
         third.transient(c, np.full(200, 0.5))
     assert c["notes"][-1] == "ngspice retried at reltol 1e-3"
+
+
+def test_a_quieter_bench_scales_the_sensor_noise_alone():
+    c = third.draw("pol", "clean", 1701)
+    q = third.quieter(c, 0.1)
+    assert q["acq"]["noise_v"] == pytest.approx(0.1 * c["acq"]["noise_v"])
+    assert q["acq"]["noise_i"] == pytest.approx(0.1 * c["acq"]["noise_i"])
+    assert {k: v for k, v in q["acq"].items() if not k.startswith("noise")} == \
+        {k: v for k, v in c["acq"].items() if not k.startswith("noise")}
+    assert {k: v for k, v in q.items() if k != "acq"} == {k: v for k, v in c.items() if k != "acq"}
+    with pytest.raises(ValueError, match="must be positive"):
+        third.quieter(c, 0.0)
