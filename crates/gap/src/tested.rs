@@ -2,8 +2,8 @@
 //!
 //! A fit's CI95 assumes its model is the data's. A circuit (SPICE or a bench) is never quite
 //! the model: its parasitics move Cl by more than a white residual at the noise floor can show.
-//! Of 42 clean third-generator captures, the nominal fit's own interval missed the true Cl in 9
-//! (by 0.01–4 %), 8 of them with white residuals. The interval is therefore tested: against
+//! Of 43 third-generator captures with no effect listed, the nominal fit's own interval missed
+//! the true Cl in 10 (by 0.001–4 %), 9 of them with white residuals. The interval is therefore tested: against
 //! the high-pass refit ([`crate::consistency`]), widened for a residual the model error
 //! colours, void where the model misses grossly, and held to the circuit model's fidelity
 //! ([`CL_FIDELITY`]). The diagnosis so tests its final model's Cl; `buckid identify` so tests
