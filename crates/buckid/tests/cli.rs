@@ -518,20 +518,24 @@ fn a_clean_point_of_load_capture_is_clean() {
     assert!((cl / cl_true - 1.0).abs() < 1e-3, "Cl {cl:e} for {cl_true:e}");
 }
 
-/// A clean capture ten times quieter than the bench's (σ ≈ 0.2 mV): the parasitics every
-/// converter carries leave a gap of 0.02 % of the output's swing, far above this floor, and
-/// were named as a 2.2 µΩ switch resistance "closing 92 %" of it. Immaterial to an engineer,
-/// whatever the floor: the verdict is `none`, with Cl inside its interval.
+/// Clean captures ten times quieter than the bench's (σ ≈ 0.2 mV). On the point-of-load buck
+/// the parasitics every converter carries leave a gap of 0.02 % of the output's swing, far
+/// above this floor, and were named as a 2.2 µΩ switch resistance "closing 92 %" of it. On the
+/// 60 V lab buck they leave 0.34 % of the swing, 13 floors, and its Cl (0.3 % off) was "not
+/// identified" as a gross miss. Neither is material to an engineer, whatever the floor: the
+/// verdict is `none`, with Cl identified inside its interval.
 #[test]
 fn a_quiet_clean_capture_is_clean() {
-    let (dx, truth) = diagnose_third("pol-quiet-1701");
-    assert_eq!(truth["effects"], serde_json::json!([]));
-    let floor = dx["where"]["noise_floor_rms"].as_f64().unwrap();
-    assert!(dx["gap_before"]["rms"].as_f64().unwrap() > 1.2 * floor, "the nominal misses above this floor: {}", dx["gap_before"]);
-    assert_eq!(dx["verdict"], "none", "{}", dx["selection_ended"]);
-    let [lo, hi] = [0, 1].map(|i| dx["gap_before"]["cl_ci95"][i].as_f64().unwrap());
-    let cl_true = truth["cl_true"].as_f64().unwrap();
-    assert!(lo <= cl_true && cl_true <= hi, "Cl {cl_true:e} outside [{lo:e}, {hi:e}]");
+    for name in ["pol-quiet-1701", "lab-quiet-1302"] {
+        let (dx, truth) = diagnose_third(name);
+        assert_eq!(truth["effects"], serde_json::json!([]));
+        let floor = dx["where"]["noise_floor_rms"].as_f64().unwrap();
+        assert!(dx["gap_before"]["rms"].as_f64().unwrap() > 1.2 * floor, "{name}: the nominal misses above this floor: {}", dx["gap_before"]);
+        assert_eq!(dx["verdict"], "none", "{name}: {}", dx["selection_ended"]);
+        let [lo, hi] = [0, 1].map(|i| dx["gap_before"]["cl_ci95"][i].as_f64().unwrap_or(f64::INFINITY));
+        let cl_true = truth["cl_true"].as_f64().unwrap();
+        assert!(lo <= cl_true && cl_true <= hi && hi < 1.1 * lo, "{name}: Cl {cl_true:e} against [{lo:e}, {hi:e}]");
+    }
 }
 
 /// `identify` on the same clean capture: its fit ranked Cl's grid on the first samples, started
