@@ -82,7 +82,7 @@ pub fn tested_cl(data: &DataSet, nominal: &Params, base: &Candidate, n_est: usiz
             Ok(check) => (Some(check), None),
             Err(reason) => (None, Some(reason)),
         },
-        _ => (None, Some(format!("the {} model fits best, and the switched simulator that tests the interval cannot fit its data", base.structure.name()))),
+        _ => (None, Some(format!("the {} model was fitted, and the switched simulator that tests the interval stands in for the switched (PWM) model only", base.structure.name()))),
     };
     TestedCl::judged(&baseline, baseline.cl, ci95, tested, &effect::residual(base))
 }
