@@ -90,9 +90,6 @@ pub struct Before {
     /// [`effect::GROSS_MISS_FLOORS`] noise floors: that multiple (Cl not identified).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_misses_by_floors: Option<f64>,
-    /// The nominal's tested Cl, when the verdict is `none` (the fields above, whole).
-    #[serde(skip)]
-    tested: Option<ClMove>,
 }
 
 impl Before {
@@ -109,20 +106,21 @@ impl Before {
             cl_check_skipped: None,
             cl_widened_by: None,
             cl_misses_by_floors: None,
-            tested: None,
         };
         match tested.map(|t| t.cl) {
-            Some(t) => Self {
-                cl: t.estimate,
-                cl_ci95: t.ci95,
-                cl_check: t.check.clone(),
-                cl_check_skipped: t.check_skipped.clone(),
-                cl_widened_by: t.widened_by,
-                cl_misses_by_floors: t.misses_by_floors,
-                tested: Some(t),
-                ..before
-            },
+            Some(t) => Self { cl: t.estimate, cl_ci95: t.ci95, cl_check: t.check, cl_check_skipped: t.check_skipped, cl_widened_by: t.widened_by, cl_misses_by_floors: t.misses_by_floors, ..before },
             None => before,
+        }
+    }
+
+    /// The nominal's Cl as the final model's is held ([`ClMove`]), for its sentence.
+    fn cl_move(&self) -> ClMove {
+        ClMove {
+            check: self.cl_check.clone(),
+            check_skipped: self.cl_check_skipped.clone(),
+            widened_by: self.cl_widened_by,
+            misses_by_floors: self.cl_misses_by_floors,
+            ..ClMove::at(self.cl, self.cl_ci95, self.cl)
         }
     }
 }
@@ -176,7 +174,7 @@ impl Diagnosis {
         let cl = match self.selected.last() {
             Some(e) => &e.cl,
             None => {
-                nominal = self.gap_before.tested.clone().unwrap_or_else(|| ClMove::at(self.gap_before.cl, self.gap_before.cl_ci95, self.gap_before.cl));
+                nominal = self.gap_before.cl_move();
                 &nominal
             }
         };
