@@ -526,7 +526,8 @@ impl Baseline {
     /// the floor ([`Baseline::misses_above_floor`]) and by more than [`MATERIAL_OF_SWING`] of the
     /// output's swing; `None` without a floor.
     pub(crate) fn misses_materially(&self, rms: f64) -> Option<bool> {
-        self.floor.map(|f| gap_material(rms, self.held_out, f, self.floor_samples) && above_floor(rms, f) > MATERIAL_OF_SWING * self.swing)
+        let f = self.floor?;
+        self.misses_above_floor(rms).map(|above| above && above_floor(rms, f) > MATERIAL_OF_SWING * self.swing)
     }
 
     /// Whether a held-out residual of RMS `rms` misses above the floor beyond its own

@@ -28,7 +28,9 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 pub use bias_law::BiasLawSpread;
-pub use effect::{ClCheck, ClMove, EFFECTS, EffectFit, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation};
+pub use effect::{
+    ClCheck, ClMove, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation,
+};
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
