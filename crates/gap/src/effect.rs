@@ -537,6 +537,25 @@ impl Baseline {
         self.floor.map(|f| gap_material(rms, self.held_out, f, self.floor_samples))
     }
 
+    /// Why no effect is a finding, from the nominal's own gap: it is within the noise floor,
+    /// immaterial against the output's swing, or material with no candidate closing a
+    /// material share of it (a mechanism the candidates lack, or noise that is not white).
+    pub(crate) fn nothing_found(&self) -> String {
+        let Some(floor) = self.floor else {
+            return "no effect is a finding".to_string();
+        };
+        let share = 100.0 * above_floor(self.rms, floor) / self.swing;
+        if self.misses_above_floor(self.rms) != Some(true) {
+            format!("no effect is a finding: the nominal misses within the noise floor ({:.2}× its RMS)", self.rms / floor)
+        } else if self.misses_materially(self.rms) != Some(true) {
+            format!("no effect is a finding: the nominal's gap above the noise floor is {share:.3} % of the output's swing, immaterial (below {:.2} %)", 100.0 * MATERIAL_OF_SWING)
+        } else {
+            format!(
+                "no effect is a finding: the nominal misses by {share:.2} % of the output's swing above the noise floor, yet no candidate closes {MATERIAL_SHARE:.0} % of it (a mechanism the candidates lack, or noise that is not white)"
+            )
+        }
+    }
+
     /// The baseline of the nominal's fit `base` on `data` (its first `n_est` samples for
     /// estimation), with drifts within `tolerance` no finding.
     pub(crate) fn of(data: &DataSet, base: &Candidate, n_est: usize, tolerance: f64) -> Self {

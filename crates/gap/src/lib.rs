@@ -279,7 +279,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let (mut selected, mut selection_ended) = match first {
         Some(first) if first.finding => path(first),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
-        None => (Vec::new(), "no effect is a finding".to_string()),
+        None => (Vec::new(), baseline.nothing_found()),
     };
     // The other topology, where the path from the first step still misses materially and the
     // other topology's best first step came close (see `select::topology_rival`).
