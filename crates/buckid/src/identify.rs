@@ -22,6 +22,10 @@ pub(crate) fn pair(s: &str, flag: &str) -> Result<(String, String)> {
     Ok((k.trim().to_string(), v.trim().to_string()))
 }
 
+/// Relative difference between the metadata `fs` and the rows' rate above which the rows'
+/// rate is the nominal (the printed time of a record is exact to far less).
+const FS_FROM_ROWS: f64 = 1e-3;
+
 /// Known circuit values from the data's metadata; thesis values (with a note) where absent.
 pub(crate) fn nominal_from(data: &DataSet) -> Result<(Params, Vec<String>)> {
     nominal_with(data, &BTreeMap::new())
@@ -49,6 +53,13 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
             continue;
         }
         match meta {
+            // The model switches once per row (the metadata agrees within
+            // `estimator::data::FS_MISMATCH`, else the data is refused): a nominal frequency
+            // the rows' own rate departs from is the rows'.
+            Some(v) if key == "fs" && valid(key, v) && (v * data.sample_period() - 1.0).abs() > FS_FROM_ROWS => {
+                p.fs = 1.0 / data.sample_period();
+                assumed.push(format!("fs = {} from the rows' spacing (the metadata says {}; the model switches once per row)", si(p.fs, "Hz", 6), si(v, "Hz", 6)));
+            }
             Some(v) if valid(key, v) => *field(&mut p) = v,
             Some(v) => bail!("metadata `{key} = {v}` is not a valid circuit value"),
             None if key == "fs" => {

@@ -158,6 +158,51 @@ fn bad_data_files_fail_with_a_message_naming_the_problem() {
     assert!(!o.status.success() && stderr(&o).contains("absent.csv"), "{}", stderr(&o));
 }
 
+/// A spreadsheet's export in a locale with a decimal comma: semicolons, headers in any case with
+/// their units (`Time [ms]`, `Vout [mV]`, `Duty [%]`), the time printed to six significant
+/// digits (0.5 % of a period at row 1500, once refused as "not uniform"). It reads as the
+/// contract's own file: the same Cl. A `# fs` the rows' spacing departs from by 2 % (a
+/// controller's oscillator) is taken from the rows, aloud; one they contradict (time in
+/// milliseconds under an SI header) is refused, where the model had switched at 330 Hz.
+#[test]
+fn a_spreadsheets_export_reads_as_the_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let contract = write_data(dir.path(), 10e-6);
+    let data = estimator::data::DataSet::read_csv(&contract).unwrap();
+    let comma = |v: f64| format!("{v:e}").replace('.', ",");
+    let mut text: String = data.meta.iter().map(|(k, v)| format!("# {k} = {v}\n")).collect();
+    text += "Time [ms];DUTY [%];Vin [V];Io (A);Vout [mV]\n";
+    for k in 0..data.len() {
+        // Six significant digits, in milliseconds.
+        let time = format!("{:.5e}", data.time[k] * 1e3);
+        let row = [time.replace('.', ","), comma(data.duty[k] * 100.0), comma(data.vin[k]), comma(data.io[k]), comma(data.vout[k] * 1e3)];
+        text += &(row.join(";") + "\n");
+    }
+    let export = dir.path().join("export.csv");
+    std::fs::write(&export, &text).unwrap();
+    let cl = |path: &Path| {
+        let out = dir.path().join("id.json");
+        let o = buckid(&["identify", "--data", path.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (json(&out)["cl"]["estimate"].as_f64().unwrap(), stderr(&o))
+    };
+    let (want, _) = cl(&contract);
+    let (got, _) = cl(&export);
+    assert!((got / want - 1.0).abs() < 1e-5, "export {got:e} against the contract's {want:e}");
+    let fs = data.meta_f64("fs").unwrap().unwrap();
+    let drifted = dir.path().join("drifted.csv");
+    std::fs::write(&drifted, std::fs::read_to_string(&contract).unwrap().replace(&format!("# fs = {fs}"), &format!("# fs = {}", fs * 1.02))).unwrap();
+    let (got, notes) = cl(&drifted);
+    assert!(notes.contains("from the rows' spacing"), "{notes}");
+    assert_eq!(got, want, "the model switches once per row either way");
+    let ms = dir.path().join("ms.csv");
+    let mut in_ms = data.clone();
+    in_ms.time.iter_mut().for_each(|t| *t *= 1e3);
+    in_ms.write_csv(&ms).unwrap();
+    let o = buckid(&["identify", "--data", ms.to_str().unwrap()]);
+    assert!(!o.status.success() && stderr(&o).contains("time in other units than seconds?"), "{}", stderr(&o));
+}
+
 #[test]
 fn bad_fmus_and_bad_arguments_fail_cleanly() {
     let dir = tempfile::tempdir().unwrap();

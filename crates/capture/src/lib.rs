@@ -14,6 +14,8 @@
 
 use std::collections::BTreeMap;
 
+use csv_header::Column;
+
 /// What went wrong reading or reducing a capture.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -49,7 +51,8 @@ pub struct Capture {
     pub meta: BTreeMap<String, String>,
 }
 
-const COLUMNS: [&str; 6] = ["time", "vout", "il", "sw", "gate", "vin"];
+const COLUMNS: [Column; 6] =
+    [Column::required("time", "s"), Column::required("vout", "V"), Column::optional("il", "A"), Column::optional("sw", "V"), Column::optional("gate", "V"), Column::optional("vin", "V")];
 
 impl Capture {
     /// Parses capture CSV text: `# key = value` lines, a header, then numbers; `time` and
@@ -59,15 +62,10 @@ impl Capture {
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }
-        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(body.as_bytes());
+        let delimiter = csv_header::delimiter(body);
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).delimiter(delimiter).from_reader(body.as_bytes());
         let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
-        let index: Vec<Option<usize>> = COLUMNS.iter().map(|c| headers.iter().position(|h| h == *c)).collect();
-        for (c, name) in [(0, "time"), (1, "vout")] {
-            if index[c].is_none() {
-                let found: Vec<&str> = headers.iter().collect();
-                return Err(data_err(format!("line {header_line}: required column `{name}` is missing (found: {})", found.join(", "))));
-            }
-        }
+        let index = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         let mut record = csv::StringRecord::new();
         let mut line = header_line;
@@ -78,13 +76,9 @@ impl Capture {
                 Ok(false) => break,
                 Err(e) => return Err(data_err(format!("line {line}: {e}"))),
             }
-            for (c, idx) in index.iter().enumerate() {
-                let Some(idx) = idx else { continue };
-                let field = record.get(*idx).unwrap_or("");
-                let v: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
-                if !v.is_finite() {
-                    return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
-                }
+            for (c, found) in index.iter().enumerate() {
+                let Some(found) = *found else { continue };
+                let v = csv_header::value(record.get(found.index).unwrap_or(""), COLUMNS[c].name, found, delimiter).map_err(|e| data_err(format!("line {line}: {e}")))?;
                 cols[c].push(v);
             }
             let n = cols[0].len();

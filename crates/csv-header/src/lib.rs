@@ -1,6 +1,7 @@
-//! The metadata header of the project's CSV contracts (time series, sweeps, scope captures):
-//! `# key = value` lines, blank lines, then the header row. One reader for all three, line
-//! endings of either kind (Excel and oscilloscopes write CRLF).
+//! The header of the project's CSV contracts (time series, sweeps, scope captures): `# key =
+//! value` lines, blank lines, then the header row, whose columns are found by name in any case
+//! with an optional unit (`Vout [mV]`). One reader for all three, line endings of either kind
+//! (Excel and oscilloscopes write CRLF), comma-, semicolon- or tab-separated.
 #![forbid(unsafe_code)]
 
 use std::collections::BTreeMap;
@@ -44,6 +45,158 @@ pub fn split(text: &str) -> Split<'_> {
     Split { meta, body: "", header_line: 0 }
 }
 
+/// A column a contract reads: its name, its SI unit (`""` for a ratio such as the duty), and
+/// whether a file must have it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Column {
+    /// Its name in the header row (any case).
+    pub name: &'static str,
+    /// Its SI unit, `""` for a ratio.
+    pub unit: &'static str,
+    /// A file without it is an error.
+    pub required: bool,
+}
+
+impl Column {
+    /// A column every file must have.
+    pub const fn required(name: &'static str, unit: &'static str) -> Self {
+        Self { name, unit, required: true }
+    }
+
+    /// A column a file may have.
+    pub const fn optional(name: &'static str, unit: &'static str) -> Self {
+        Self { name, unit, required: false }
+    }
+}
+
+/// Where a column was found in the header row, and the factor that takes its values to SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Found {
+    /// Its position in the row.
+    pub index: usize,
+    /// The factor to SI of the unit its header names (1 without one).
+    pub scale: f64,
+}
+
+/// The field delimiter of a header row: a comma, or a semicolon or tab where the row has no
+/// comma (a spreadsheet's export where the decimal separator is a comma; tab-separated text).
+///
+/// ```
+/// assert_eq!(csv_header::delimiter("time;vout\r\n"), b';');
+/// assert_eq!(csv_header::delimiter("time,vout"), b',');
+/// ```
+pub fn delimiter(header_row: &str) -> u8 {
+    let row = header_row.lines().next().unwrap_or("");
+    if row.contains(',') {
+        b','
+    } else if row.contains(';') {
+        b';'
+    } else if row.contains('\t') {
+        b'\t'
+    } else {
+        b','
+    }
+}
+
+/// The value in `field` of the column `name` found as `found`, in SI; where the delimiter is not
+/// a comma, a decimal comma is read as a point. An error names the column and the field when it
+/// is not a finite number.
+pub fn value(field: &str, name: &str, found: Found, delimiter: u8) -> Result<f64, String> {
+    let v = number(field, delimiter).ok_or_else(|| format!("column `{name}` value {field:?} is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("column `{name}` value {field:?} is not finite"));
+    }
+    Ok(v * found.scale)
+}
+
+/// A field as a number, a decimal comma read as a point where the delimiter is not a comma.
+fn number(field: &str, delimiter: u8) -> Option<f64> {
+    match field.parse() {
+        Ok(v) => Some(v),
+        Err(_) if delimiter != b',' && field.matches(',').count() == 1 && !field.contains('.') => field.replace(',', ".").parse().ok(),
+        Err(_) => None,
+    }
+}
+
+/// SI prefixes a unit may carry.
+const PREFIXES: [(&str, f64); 8] = [("p", 1e-12), ("n", 1e-9), ("u", 1e-6), ("µ", 1e-6), ("μ", 1e-6), ("m", 1e-3), ("k", 1e3), ("M", 1e6)];
+
+/// The factor from `unit` (as written in a header) to the SI unit `si`, if it is one of its.
+fn scale(unit: &str, si: &str) -> Option<f64> {
+    // Spellings of the ohm: the Greek capital, the ohm sign, the word.
+    let unit = ["Ohm", "ohm", "\u{2126}"].iter().find_map(|w| unit.strip_suffix(w)).filter(|_| si == "Ω").map_or_else(|| unit.to_string(), |p| format!("{p}Ω"));
+    // No unit written: the contract's own.
+    if unit.is_empty() {
+        return Some(1.0);
+    }
+    if si.is_empty() {
+        return match unit.as_str() {
+            "1" => Some(1.0),
+            "%" => Some(0.01),
+            _ => None,
+        };
+    }
+    match unit.strip_suffix(si)? {
+        "" => Some(1.0),
+        prefix => PREFIXES.iter().find(|(p, _)| *p == prefix).map(|(_, f)| *f),
+    }
+}
+
+/// A header split into its name and the unit in brackets or parentheses after it (`""` when
+/// there is none).
+fn name_and_unit(header: &str) -> (&str, &str) {
+    let header = header.trim();
+    for (open, close) in [('[', ']'), ('(', ')')] {
+        if let Some(inner) = header.strip_suffix(close)
+            && let Some((name, unit)) = inner.rsplit_once(open)
+        {
+            return (name.trim(), unit.trim());
+        }
+    }
+    (header, "")
+}
+
+/// Finds `wanted` among `headers`. A header names a column when it is the column's name in any
+/// case, alone or followed by a unit in brackets or parentheses (`Vout [mV]`, `time (ms)`):
+/// the column's SI unit with or without a prefix (`p n µ u m k M`), or `%` for a ratio. A unit
+/// of another quantity, two headers for one column, or a required column missing is an error
+/// naming it.
+///
+/// ```
+/// use csv_header::{Column, find};
+/// let wanted = [Column::required("time", "s"), Column::required("vout", "V")];
+/// let found = find(&["Time [ms]", "extra", "VOUT (V)"], &wanted).unwrap();
+/// assert_eq!(found[0].map(|f| (f.index, f.scale)), Some((0, 1e-3)));
+/// assert_eq!(found[1].map(|f| f.index), Some(2));
+/// assert!(find(&["time", "vout [A]"], &wanted).unwrap_err().contains("not a unit of"));
+/// ```
+pub fn find(headers: &[&str], wanted: &[Column]) -> Result<Vec<Option<Found>>, String> {
+    wanted
+        .iter()
+        .map(|col| {
+            let mut found: Option<(Found, &str)> = None;
+            for (index, header) in headers.iter().enumerate() {
+                let (name, unit) = name_and_unit(header);
+                if !name.eq_ignore_ascii_case(col.name) {
+                    continue;
+                }
+                let Some(scale) = scale(unit, col.unit) else {
+                    let si = if col.unit.is_empty() { "a ratio (none, or %)".to_string() } else { format!("{} (or with a prefix: m{0}, µ{0}, k{0}…)", col.unit) };
+                    return Err(format!("column `{header}`: `{unit}` is not a unit of `{}`, which is read in {si}", col.name));
+                };
+                if let Some((_, first)) = found {
+                    return Err(format!("two columns are `{}`: `{first}` and `{header}`", col.name));
+                }
+                found = Some((Found { index, scale }, header));
+            }
+            if found.is_none() && col.required {
+                return Err(format!("required column `{}` is missing (found: {})", col.name, headers.join(", ")));
+            }
+            Ok(found.map(|(f, _)| f))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -64,5 +217,33 @@ mod tests {
         let s = split("# only = metadata\n\n");
         assert_eq!((s.body, s.header_line), ("", 0));
         assert_eq!(split(""), Split { meta: BTreeMap::new(), body: "", header_line: 0 });
+    }
+
+    #[test]
+    fn headers_are_found_in_any_case_with_a_unit_of_theirs() {
+        let wanted = [Column::required("time", "s"), Column::optional("duty", ""), Column::optional("il", "A"), Column::optional("rload", "Ω")];
+        let found = find(&["Time (us)", "DUTY [%]", "IL [mA]", "rload [kOhm]"], &wanted).unwrap();
+        let scales: Vec<f64> = found.iter().map(|f| f.unwrap().scale).collect();
+        assert_eq!(scales, [1e-6, 0.01, 1e-3, 1e3]);
+        assert_eq!(find(&["time", "x"], &wanted).unwrap()[1], None, "an optional column may be absent");
+        let cases: [(&[&str], &str); 4] = [
+            (&["time [V]"], "`V` is not a unit of `time`"),
+            (&["time", "duty [ms]"], "which is read in a ratio"),
+            (&["time", "il", "IL [A]"], "two columns are `il`: `il` and `IL [A]`"),
+            (&["t", "vout"], "required column `time` is missing (found: t, vout)"),
+        ];
+        for (headers, needle) in cases {
+            let err = find(headers, &wanted).unwrap_err();
+            assert!(err.contains(needle), "{headers:?}: {err:?} lacks {needle:?}");
+        }
+    }
+
+    #[test]
+    fn a_semicolon_or_tab_separated_export_reads_a_decimal_comma() {
+        assert_eq!((delimiter("a;b"), delimiter("a\tb"), delimiter("a")), (b';', b'\t', b','));
+        assert_eq!(number("1,5", b';'), Some(1.5));
+        assert_eq!(number("-2,5e-3", b'\t'), Some(-2.5e-3));
+        assert_eq!(number("1,5", b','), None, "a comma-separated file has no decimal comma");
+        assert_eq!(number("1.000,5", b';'), None, "thousands separators are not guessed");
     }
 }

@@ -8,6 +8,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use csv_header::Column;
+
 use crate::error::{SweepError, data_err};
 use crate::model::{Circuit, OperatingPoint};
 
@@ -25,7 +27,8 @@ pub struct Sweep {
 }
 
 /// Columns read (others are ignored).
-const COLUMNS: [&str; 6] = ["duty", "vin", "io", "rload", "vout", "il"];
+const COLUMNS: [Column; 6] =
+    [Column::required("duty", ""), Column::optional("vin", "V"), Column::optional("io", "A"), Column::optional("rload", "Ω"), Column::required("vout", "V"), Column::optional("il", "A")];
 
 impl Sweep {
     /// Number of operating points.
@@ -78,34 +81,25 @@ impl Sweep {
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }
-        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(body.as_bytes());
+        let delimiter = csv_header::delimiter(body);
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).delimiter(delimiter).from_reader(body.as_bytes());
         let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
-        let index: Vec<Option<usize>> = COLUMNS.iter().map(|c| headers.iter().position(|h| h == *c)).collect();
-        for (c, required) in [(0, "duty"), (4, "vout")] {
-            if index[c].is_none() {
-                let found: Vec<&str> = headers.iter().collect();
-                return Err(data_err(format!("line {header_line}: required column `{required}` is missing (found: {})", found.join(", "))));
-            }
-        }
+        let index = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         for (r, record) in reader.records().enumerate() {
             let record = record.map_err(|e| data_err(format!("line {}: {e}", header_line + 1 + r)))?;
             let line = record.position().map_or(header_line + 1 + r, |p| header_line + p.line() as usize - 1);
-            for (c, idx) in index.iter().enumerate() {
-                let Some(idx) = idx else { continue };
-                let field = record.get(*idx).unwrap_or("");
-                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
-                if !value.is_finite() {
-                    return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
-                }
-                let bad = match COLUMNS[c] {
+            for (c, found) in index.iter().enumerate() {
+                let Some(found) = *found else { continue };
+                let value = csv_header::value(record.get(found.index).unwrap_or(""), COLUMNS[c].name, found, delimiter).map_err(|e| data_err(format!("line {line}: {e}")))?;
+                let bad = match COLUMNS[c].name {
                     "duty" => (!(0.0..=1.0).contains(&value)).then_some("outside 0..1"),
                     "rload" => (value <= 0.0).then_some("not a positive resistance"),
                     "vin" => (value <= 0.0).then_some("not a positive voltage"),
                     _ => None,
                 };
                 if let Some(why) = bad {
-                    return Err(data_err(format!("line {line}: column `{}` value {value} is {why}", COLUMNS[c])));
+                    return Err(data_err(format!("line {line}: column `{}` value {value} is {why}", COLUMNS[c].name)));
                 }
                 cols[c].push(value);
             }

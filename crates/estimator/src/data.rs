@@ -6,6 +6,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use csv_header::{Column, Found};
+
 use crate::error::{EstimatorError, data_err};
 
 /// Measured or simulated signals at one sample per switching period.
@@ -34,8 +36,34 @@ pub struct DataSet {
 /// Metadata key (and optional constant column) of the load resistance [Ω].
 pub const RLOAD: &str = "rload";
 
+/// How far a step between rows may differ from their mean spacing, in periods.
+const STEP_SLACK: f64 = 0.5;
+
+/// How far a row's time may lie off the uniform grid of the mean spacing, in periods (a row
+/// missing in the middle of a record puts the rows around it half a period off).
+const GRID_SLACK: f64 = 0.25;
+
+/// Largest relative difference between the metadata `fs` and the rate of the rows: a
+/// controller's oscillator is within a few percent of its nominal frequency; a time column in
+/// milliseconds, or every second period kept, is far outside.
+pub const FS_MISMATCH: f64 = 0.05;
+
 /// Columns of the CSV contract, in the order they are written.
 const COLUMNS: [&str; 8] = ["time", "duty", "vin", "io", "vout", "il", "vout_avg", "il_avg"];
+
+/// The contract's columns as the reader finds them ([`COLUMNS`], then `rload`): SI units, `time`
+/// and `vout` required.
+const READ: [Column; 9] = [
+    Column::required("time", "s"),
+    Column::optional("duty", ""),
+    Column::optional("vin", "V"),
+    Column::optional("io", "A"),
+    Column::required("vout", "V"),
+    Column::optional("il", "A"),
+    Column::optional("vout_avg", "V"),
+    Column::optional("il_avg", "A"),
+    Column::optional(RLOAD, "Ω"),
+];
 
 impl DataSet {
     /// Number of samples.
@@ -114,8 +142,37 @@ impl DataSet {
         if !dt.is_finite() || !(self.time[n - 1] - self.time[0]).is_finite() {
             return Err(data_err(format!("`time` spans {:e} … {:e} s: the sample period is not a finite number", self.time[0], self.time[n - 1])));
         }
-        if let Some(i) = (1..n).find(|&i| ((self.time[i] - self.time[i - 1]) - dt).abs() > 1e-3 * dt) {
-            return Err(data_err(format!("`time` is not uniform: row {} follows row {} by {:e} s, the mean spacing is {dt:e} s", i + 1, i, self.time[i] - self.time[i - 1])));
+        // Rounding and jitter of the printed time pass (a logger's six significant digits are
+        // 0.5 % of the period at row 3000); a missing or repeated row does not, nor the rows of a
+        // log that is not one per period.
+        let contract = "one row per switching period is the contract: a row missing or repeated?";
+        let step = |i: usize| self.time[i] - self.time[i - 1];
+        if let Some(i) = (1..n).find(|&i| (step(i) - dt).abs() > STEP_SLACK * dt) {
+            return Err(data_err(format!("`time` is not uniform: row {} follows row {i} by {:e} s, {:.2} times the mean spacing {dt:e} s ({contract})", i + 1, step(i), step(i) / dt)));
+        }
+        let off = |i: usize| self.time[i] - (self.time[0] + i as f64 * dt);
+        if let Some(i) = (1..n).find(|&i| off(i).abs() > GRID_SLACK * dt) {
+            return Err(data_err(format!("`time` is not uniform: row {} lies {:+.2} periods off the grid of the mean spacing {dt:e} s ({contract})", i + 1, off(i) / dt)));
+        }
+        if let Some(fs) = self.meta_f64("fs")?
+            && (!fs.is_finite() || (fs * dt - 1.0).abs() > FS_MISMATCH)
+        {
+            return Err(data_err(format!(
+                "metadata `fs = {fs}` but `time` is spaced by {dt:e} s, a rate of {:.1} kHz: the model switches once per row, so the two must agree within {:.0} % (time in other units than seconds? only every n-th period kept?)",
+                1e-3 / dt,
+                FS_MISMATCH * 100.0
+            )));
+        }
+        // A duty in percent reaches the simulator as an out-of-range input and the fit as a
+        // diverging predictor, which names neither.
+        if let Some(i) = self.duty.iter().position(|d| !(0.0..=1.0).contains(d)) {
+            let percent = self.duty.iter().all(|d| (0.0..=100.0).contains(d));
+            return Err(data_err(format!(
+                "column `duty` row {}: {} is outside [0, 1], the fraction of the switching period the high side is on{}",
+                i + 1,
+                self.duty[i],
+                if percent { " (in percent? divide by 100)" } else { "" }
+            )));
         }
         Ok(())
     }
@@ -151,18 +208,12 @@ impl DataSet {
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }
-        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(body.as_bytes());
+        let delimiter = csv_header::delimiter(body);
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).delimiter(delimiter).from_reader(body.as_bytes());
         let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
-        let index = |name: &str| headers.iter().position(|h| h == name);
-        let wanted: Vec<Option<usize>> = COLUMNS.iter().map(|c| index(c)).collect();
-        for required in ["time", "vout"] {
-            if index(required).is_none() {
-                let found: Vec<&str> = headers.iter().collect();
-                return Err(data_err(format!("line {header_line}: required column `{required}` is missing (found: {})", found.join(", "))));
-            }
-        }
+        let mut wanted = csv_header::find(&headers.iter().collect::<Vec<_>>(), &READ).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
+        let rload_col = wanted.pop().flatten();
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
-        let rload_col = index(RLOAD);
         // A load-resistance column must hold one value (the models take a fixed resistor): it
         // becomes the `rload` metadata, which it must agree with when both are given.
         let mut rload: Option<(f64, usize)> = None;
@@ -175,11 +226,11 @@ impl DataSet {
                 data_err(format!("line {line}: {e}"))
             })?;
             let line = line_of(record.position(), header_line + 1 + r);
-            if let Some(idx) = rload_col {
-                let field = record.get(idx).unwrap_or("");
-                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{RLOAD}` value {field:?} is not a number")))?;
-                if !(value.is_finite() && value >= 0.0) {
-                    return Err(data_err(format!("line {line}: column `{RLOAD}` value {field:?} must be a finite resistance ≥ 0 Ω (0 = none)")));
+            let value_at = |found: Found, name: &str| csv_header::value(record.get(found.index).unwrap_or(""), name, found, delimiter).map_err(|e| data_err(format!("line {line}: {e}")));
+            if let Some(found) = rload_col {
+                let value = value_at(found, RLOAD)?;
+                if value < 0.0 {
+                    return Err(data_err(format!("line {line}: column `{RLOAD}` value {value} Ω must be a resistance ≥ 0 Ω (0 = none)")));
                 }
                 match rload {
                     None => rload = Some((value, line)),
@@ -191,13 +242,9 @@ impl DataSet {
                     Some(_) => {}
                 }
             }
-            for (c, idx) in wanted.iter().enumerate() {
-                let Some(idx) = idx else { continue };
-                let field = record.get(*idx).unwrap_or("");
-                let value: f64 = field.parse().map_err(|_| data_err(format!("line {line}: column `{}` value {field:?} is not a number", COLUMNS[c])))?;
-                if !value.is_finite() {
-                    return Err(data_err(format!("line {line}: column `{}` value {field:?} is not finite", COLUMNS[c])));
-                }
+            for (c, found) in wanted.iter().enumerate() {
+                let Some(found) = *found else { continue };
+                let value = value_at(found, COLUMNS[c])?;
                 cols[c].push(value);
             }
         }
@@ -318,6 +365,10 @@ mod tests {
             ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,abc,0.5,12,1\n", "line 3: column `vout` value \"abc\""),
             ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1\n5e-6,1,0.5,12,1\n", "not uniform"),
             ("time,vout\n0,1\n1e-6,1\n", "column `duty` is missing"),
+            ("time,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1\n2e-6,1,0.5,12,1\n4e-6,1,0.5,12,1\n5e-6,1,0.5,12,1\n", "row 4 follows row 3 by 2e-6 s, 1.60 times"),
+            ("# fs = 500000\ntime,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1\n2e-6,1,0.5,12,1\n", "a rate of 1000.0 kHz"),
+            ("time,vout,duty,vin,io\n0,1,40,12,1\n1e-6,1,60,12,1\n", "row 1: 40 is outside [0, 1], the fraction of the switching period the high side is on (in percent?"),
+            ("time,vout [ms]\n0,1\n", "`ms` is not a unit of `vout`"),
             ("time,vout,duty,vin,io\n0,1,0.5,12\n", "line 2"),
         ];
         for (text, needle) in cases {
