@@ -48,12 +48,9 @@ const GRID_SLACK: f64 = 0.25;
 /// milliseconds, or every second period kept, is far outside.
 pub const FS_MISMATCH: f64 = 0.05;
 
-/// Columns of the CSV contract, in the order they are written.
-const COLUMNS: [&str; 8] = ["time", "duty", "vin", "io", "vout", "il", "vout_avg", "il_avg"];
-
-/// The contract's columns as the reader finds them ([`COLUMNS`], then `rload`): SI units, `time`
-/// and `vout` required.
-const READ: [Column; 9] = [
+/// Columns of the CSV contract, in the order they are written, then `rload` (read into the
+/// metadata): SI units, `time` and `vout` required.
+const COLUMNS: [Column; 9] = [
     Column::required("time", "s"),
     Column::optional("duty", ""),
     Column::optional("vin", "V"),
@@ -211,9 +208,9 @@ impl DataSet {
         let delimiter = csv_header::delimiter(body);
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).delimiter(delimiter).from_reader(body.as_bytes());
         let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
-        let mut wanted = csv_header::find(&headers.iter().collect::<Vec<_>>(), &READ).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
+        let mut wanted = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let rload_col = wanted.pop().flatten();
-        let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
+        let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
         // A load-resistance column must hold one value (the models take a fixed resistor): it
         // becomes the `rload` metadata, which it must agree with when both are given.
         let mut rload: Option<(f64, usize)> = None;
@@ -244,7 +241,7 @@ impl DataSet {
             }
             for (c, found) in wanted.iter().enumerate() {
                 let Some(found) = *found else { continue };
-                let value = value_at(found, COLUMNS[c])?;
+                let value = value_at(found, COLUMNS[c].name)?;
                 cols[c].push(value);
             }
         }
@@ -270,7 +267,7 @@ impl DataSet {
             }
             match data.meta_f64(key)? {
                 Some(v) => Ok(vec![v; n]),
-                None => Err(data_err(format!("column `{}` is missing and no `# {key} = …` metadata gives it", COLUMNS[c]))),
+                None => Err(data_err(format!("column `{}` is missing and no `# {key} = …` metadata gives it", COLUMNS[c].name))),
             }
         };
         data.duty = fill(1, "duty", &data)?;
