@@ -69,13 +69,22 @@ impl Column {
     }
 }
 
-/// Where a column was found in the header row, and the factor that takes its values to SI.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Where a column was found in the header row, and the power of ten that takes its values to SI.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Found {
     /// Its position in the row.
     pub index: usize,
-    /// The factor to SI of the unit its header names (1 without one).
-    pub scale: f64,
+    /// The unit its header names is `10^power` of the SI unit (0 without one).
+    pub power: i32,
+}
+
+impl Found {
+    /// `v` in the header's unit, in SI: divided by a power of ten below 1 (exact powers of ten,
+    /// so that `1940` mV is the double nearest 1.94 V, as if written in volts).
+    pub fn si(&self, v: f64) -> f64 {
+        let ten = 10f64.powi(self.power.abs());
+        if self.power < 0 { v / ten } else { v * ten }
+    }
 }
 
 /// The field delimiter of a header row: a comma, or a semicolon or tab where the row has no
@@ -106,7 +115,7 @@ pub fn value(field: &str, name: &str, found: Found, delimiter: u8) -> Result<f64
     if !v.is_finite() {
         return Err(format!("column `{name}` value {field:?} is not finite"));
     }
-    Ok(v * found.scale)
+    Ok(found.si(v))
 }
 
 /// A field as a number, a decimal comma read as a point where the delimiter is not a comma.
@@ -118,27 +127,28 @@ fn number(field: &str, delimiter: u8) -> Option<f64> {
     }
 }
 
-/// SI prefixes a unit may carry.
-const PREFIXES: [(&str, f64); 8] = [("p", 1e-12), ("n", 1e-9), ("u", 1e-6), ("µ", 1e-6), ("μ", 1e-6), ("m", 1e-3), ("k", 1e3), ("M", 1e6)];
+/// SI prefixes a unit may carry, with their powers of ten.
+const PREFIXES: [(&str, i32); 8] = [("p", -12), ("n", -9), ("u", -6), ("µ", -6), ("μ", -6), ("m", -3), ("k", 3), ("M", 6)];
 
-/// The factor from `unit` (as written in a header) to the SI unit `si`, if it is one of its.
-fn scale(unit: &str, si: &str) -> Option<f64> {
+/// The power of ten from `unit` (as written in a header) to the SI unit `si`, if it is one of
+/// its.
+fn power(unit: &str, si: &str) -> Option<i32> {
     // Spellings of the ohm: the Greek capital, the ohm sign, the word.
     let unit = ["Ohm", "ohm", "\u{2126}"].iter().find_map(|w| unit.strip_suffix(w)).filter(|_| si == "Ω").map_or_else(|| unit.to_string(), |p| format!("{p}Ω"));
     // No unit written: the contract's own.
     if unit.is_empty() {
-        return Some(1.0);
+        return Some(0);
     }
     if si.is_empty() {
         return match unit.as_str() {
-            "1" => Some(1.0),
-            "%" => Some(0.01),
+            "1" => Some(0),
+            "%" => Some(-2),
             _ => None,
         };
     }
     match unit.strip_suffix(si)? {
-        "" => Some(1.0),
-        prefix => PREFIXES.iter().find(|(p, _)| *p == prefix).map(|(_, f)| *f),
+        "" => Some(0),
+        prefix => PREFIXES.iter().find(|(p, _)| *p == prefix).map(|(_, e)| *e),
     }
 }
 
@@ -166,7 +176,7 @@ fn name_and_unit(header: &str) -> (&str, &str) {
 /// use csv_header::{Column, find};
 /// let wanted = [Column::required("time", "s"), Column::required("vout", "V")];
 /// let found = find(&["Time [ms]", "extra", "VOUT (V)"], &wanted).unwrap();
-/// assert_eq!(found[0].map(|f| (f.index, f.scale)), Some((0, 1e-3)));
+/// assert_eq!(found[0].map(|f| (f.index, f.power)), Some((0, -3)));
 /// assert_eq!(found[1].map(|f| f.index), Some(2));
 /// assert!(find(&["time", "vout [A]"], &wanted).unwrap_err().contains("not a unit of"));
 /// ```
@@ -180,14 +190,14 @@ pub fn find(headers: &[&str], wanted: &[Column]) -> Result<Vec<Option<Found>>, S
                 if !name.eq_ignore_ascii_case(col.name) {
                     continue;
                 }
-                let Some(scale) = scale(unit, col.unit) else {
+                let Some(power) = power(unit, col.unit) else {
                     let si = if col.unit.is_empty() { "a ratio (none, or %)".to_string() } else { format!("{} (or with a prefix: m{0}, µ{0}, k{0}…)", col.unit) };
                     return Err(format!("column `{header}`: `{unit}` is not a unit of `{}`, which is read in {si}", col.name));
                 };
                 if let Some((_, first)) = found {
                     return Err(format!("two columns are `{}`: `{first}` and `{header}`", col.name));
                 }
-                found = Some((Found { index, scale }, header));
+                found = Some((Found { index, power }, header));
             }
             if found.is_none() && col.required {
                 return Err(format!("required column `{}` is missing (found: {})", col.name, headers.join(", ")));
@@ -223,8 +233,11 @@ mod tests {
     fn headers_are_found_in_any_case_with_a_unit_of_theirs() {
         let wanted = [Column::required("time", "s"), Column::optional("duty", ""), Column::optional("il", "A"), Column::optional("rload", "Ω")];
         let found = find(&["Time (us)", "DUTY [%]", "IL [mA]", "rload [kOhm]"], &wanted).unwrap();
-        let scales: Vec<f64> = found.iter().map(|f| f.unwrap().scale).collect();
-        assert_eq!(scales, [1e-6, 0.01, 1e-3, 1e3]);
+        let powers: Vec<i32> = found.iter().map(|f| f.unwrap().power).collect();
+        assert_eq!(powers, [-6, -2, -3, 3]);
+        let millivolts = Found { index: 0, power: -3 };
+        assert_eq!(millivolts.si(1940.0), 1.94, "as if written in volts");
+        assert_eq!(Found { index: 0, power: 3 }.si(2.2), 2200.0);
         assert_eq!(find(&["time", "x"], &wanted).unwrap()[1], None, "an optional column may be absent");
         let cases: [(&[&str], &str); 4] = [
             (&["time [V]"], "`V` is not a unit of `time`"),
