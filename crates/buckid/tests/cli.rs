@@ -635,6 +635,20 @@ fn identify_tests_the_interval_on_a_circuits_data() {
 /// so neither is the ceramic's shape. Judged on the worse law's residual, Cl was "not
 /// identified" (a gross miss of 7.6 floors); with the better law's own interval it missed the
 /// truth. Judged on the better law's fit, its interval spanning both laws' Cl, it holds it.
+/// A lab buck with five effects whose selection ended with L −39 % and Cl 16 times too large,
+/// the LC resonance kept (`gap::current`): 234 [229, 241] µF for 14.4 µF. Its model's inductor
+/// current matches the measured one only through a probe gain of ×0.60, so its impedance, and
+/// its Cl, is not the converter's: Cl is not identified, and the JSON says why.
+#[test]
+fn a_model_with_the_wrong_impedance_is_not_identified() {
+    let (dx, _) = diagnose_third("lab-several-4101");
+    let cl = &dx["selected"].as_array().and_then(|s| s.last()).expect("a selection")["cl"];
+    let upper = cl["ci95"][1].as_f64();
+    assert!(upper.is_none_or(|u| !u.is_finite()), "{cl}");
+    let gain = cl["current_misfit"]["probe_gain"].as_f64().expect("the current's misfit");
+    assert!((gain - 1.0).abs() > gap::PROBE_GAIN_TOLERANCE, "{cl}");
+}
+
 #[test]
 fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
     let (dx, truth) = diagnose_third("pol-single-2301");

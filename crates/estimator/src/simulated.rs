@@ -265,7 +265,7 @@ fn reading_offset(measured: &[f64], simulated: &[f64]) -> f64 {
 /// The zero and gain errors `(offset, gain_error)` that fit `measured` best as
 /// `(1 + gain_error)·simulated + offset` (least squares; the offset alone where the simulated
 /// reading does not vary).
-fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
+pub fn reading_calibration(measured: &[f64], simulated: &[f64]) -> (f64, f64) {
     let n = measured.len().min(simulated.len()).max(1) as f64;
     let (my, ms) = (measured.iter().sum::<f64>() / n, simulated.iter().sum::<f64>() / n);
     let (sxx, sxy) = measured.iter().zip(simulated).fold((0.0, 0.0), |(xx, xy), (y, s)| (xx + (s - ms).powi(2), xy + (s - ms) * (y - my)));

@@ -93,6 +93,10 @@ pub struct ClMove {
     /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
+    /// For a final model whose inductor current the measured one matches only through a probe
+    /// gain far beyond a probe's tolerance: how it misses; Cl is then not identified.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub current_misfit: Option<crate::CurrentMisfit>,
 }
 
 impl ClMove {
@@ -114,6 +118,9 @@ impl ClMove {
         if let Some(k) = self.misses_by_floors {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
+        if let Some(misfit) = &self.current_misfit {
+            test += &format!("; {misfit}");
+        }
         if at_fidelity {
             test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * crate::CL_FIDELITY);
         }
@@ -128,7 +135,8 @@ impl ClMove {
 
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
     pub(crate) fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
-        let mut cl = Self { estimate, ci95, moved_percent: f64::NAN, check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None };
+        let mut cl =
+            Self { estimate, ci95, moved_percent: f64::NAN, check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None, current_misfit: None };
         cl.moved_from(cl_before);
         cl
     }

@@ -11,6 +11,7 @@
 mod bias_law;
 mod candidates;
 mod consistency;
+mod current;
 mod effect;
 mod joint;
 mod limits;
@@ -28,6 +29,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 pub use bias_law::BiasLawSpread;
+pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE};
 pub use effect::{
     ClCheck, ClMove, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, closed_percent, gap_above, gap_material, model_error_inflation,
 };
@@ -336,7 +338,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // The final circuit with its law's shape (the other law's fit, where the data prefers it),
     // run on the data's inputs where that tells something: a ceramic's operating point (a law
     // the nominal brings keeps its own reference), a diode buck's share of DCM periods.
-    let final_circuit = selected.last().and_then(|last| preferred_circuit.or_else(|| select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok().map(|s| s.params)));
+    let final_stack = selected.last().and_then(|last| select::Stack::of(&selected.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok());
+    let final_circuit = selected.last().and(preferred_circuit.or_else(|| final_stack.as_ref().map(|s| s.params)));
     let biased = |p: &Params| p.cap_dc_bias > 0.0 && !own_bias_law;
     let operation = final_circuit.filter(|p| biased(p) || p.asynchronous()).and_then(|p| estimator::simulated::operation(&p, data, data.vout[0]).ok().map(|o| (p, o)));
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
@@ -362,6 +365,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = baseline.judged_by_miss(last.cl.estimate, last.cl.ci95, left);
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
+        }
+        // A model whose inductor current the measured one matches only through an implausible
+        // probe gain has the wrong impedance: its Cl is not the converter's.
+        // (Switched data, as the model sees it: the duty delayed where it is late.)
+        let misfit = final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est));
+        if let Some(misfit) = misfit.filter(CurrentMisfit::contradicts) {
+            last.cl.ci95 = [0.0, f64::INFINITY];
+            last.cl.current_misfit = Some(misfit);
         }
         let at_fidelity;
         (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95);
