@@ -379,6 +379,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         (None, at_fidelity)
     } else {
         let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual);
+        let judged = if switched { judged.against_current(data, nominal, n_est) } else { judged };
         let at_fidelity = judged.at_fidelity;
         (Some(judged), at_fidelity)
     };

@@ -6,7 +6,8 @@
 //! the true Cl in 10 (by 0.001–4 %), 9 of them with white residuals. The interval is therefore tested: against
 //! the high-pass refit ([`crate::consistency`]), widened for a residual the model error
 //! colours, void where the model misses grossly, and held to the circuit model's fidelity
-//! ([`CL_FIDELITY`]). The diagnosis so tests its final model's Cl; `buckid identify` so tests
+//! ([`CL_FIDELITY`]), and void where the model's inductor current contradicts the measured one
+//! ([`CurrentMisfit`]). The diagnosis so tests its final model's Cl; `buckid identify` so tests
 //! the nominal's on data from a file.
 use buck_model::Params;
 use estimator::data::DataSet;
@@ -15,6 +16,7 @@ use estimator::model::Structure;
 use serde::Serialize;
 
 use crate::consistency;
+use crate::current::CurrentMisfit;
 use crate::effect::{self, Baseline, ClCheck, ClMove};
 
 /// Relative half-width below which Cl's CI95 is not reported: the fidelity of a circuit model
@@ -65,6 +67,16 @@ impl TestedCl {
         Self { cl: judged, model_ci95: ci95, at_fidelity }
     }
 
+    /// Not identified where the nominal's inductor current at this Cl contradicts the measured
+    /// one ([`CurrentMisfit`]: the nominal's impedance is not the converter's).
+    pub(crate) fn against_current(mut self, data: &DataSet, nominal: &Params, n_est: usize) -> Self {
+        if let Some(misfit) = CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est).filter(CurrentMisfit::contradicts) {
+            (self.cl.ci95, self.at_fidelity) = ([0.0, f64::INFINITY], false);
+            self.cl.current_misfit = Some(misfit);
+        }
+        self
+    }
+
     /// A sentence on the interval's test, for people.
     pub fn sentence(&self) -> String {
         self.cl.sentence(self.at_fidelity)
@@ -77,14 +89,17 @@ impl TestedCl {
 pub fn tested_cl(data: &DataSet, nominal: &Params, base: &Candidate, n_est: usize) -> TestedCl {
     let baseline = Baseline::of(data, base, n_est, 0.0);
     let ci95 = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
-    let tested = match base.structure {
-        Structure::Pwm | Structure::Simulated => match consistency::check(data, nominal, &[], baseline.cl, ci95, n_est) {
+    let switched = matches!(base.structure, Structure::Pwm | Structure::Simulated);
+    let tested = if switched {
+        match consistency::check(data, nominal, &[], baseline.cl, ci95, n_est) {
             Ok(check) => (Some(check), None),
             Err(reason) => (None, Some(reason)),
-        },
-        _ => (None, Some(format!("the {} model was fitted, and the switched simulator that tests the interval stands in for the switched (PWM) model only", base.structure.name()))),
+        }
+    } else {
+        (None, Some(format!("the {} model was fitted, and the switched simulator that tests the interval stands in for the switched (PWM) model only", base.structure.name())))
     };
-    TestedCl::judged(&baseline, baseline.cl, ci95, tested, &effect::residual(base))
+    let judged = TestedCl::judged(&baseline, baseline.cl, ci95, tested, &effect::residual(base));
+    if switched { judged.against_current(data, nominal, n_est) } else { judged }
 }
 
 #[cfg(test)]
