@@ -153,21 +153,23 @@ fn power(unit: &str, si: &str) -> Option<i32> {
 }
 
 /// A header split into its name and the unit in brackets or parentheses after it (`""` when
-/// there is none).
-fn name_and_unit(header: &str) -> (&str, &str) {
+/// there is none), and, where there is none, the unit after a slash (`Vout/mV`, the
+/// quantity-over-unit style of many exports), which may also be a ratio of two columns.
+fn name_and_unit(header: &str) -> (&str, &str, Option<(&str, &str)>) {
     let header = header.trim();
     for (open, close) in [('[', ']'), ('(', ')')] {
         if let Some(inner) = header.strip_suffix(close)
             && let Some((name, unit)) = inner.rsplit_once(open)
         {
-            return (name.trim(), unit.trim());
+            return (name.trim(), unit.trim(), None);
         }
     }
-    (header, "")
+    (header, "", header.rsplit_once('/').map(|(name, unit)| (name.trim(), unit.trim())))
 }
 
 /// Finds `wanted` among `headers`. A header names a column when it is the column's name in any
-/// case, alone or followed by a unit in brackets or parentheses (`Vout [mV]`, `time (ms)`):
+/// case, alone or followed by a unit in brackets, parentheses or after a slash (`Vout [mV]`,
+/// `time (ms)`, `IL/A`):
 /// the column's SI unit with or without a prefix (`p n µ u m k M`), or `%` for a ratio. A unit
 /// of another quantity, two headers for one column, or a required column missing is an error
 /// naming it.
@@ -186,7 +188,11 @@ pub fn find(headers: &[&str], wanted: &[Column]) -> Result<Vec<Option<Found>>, S
         .map(|col| {
             let mut found: Option<(Found, &str)> = None;
             for (index, header) in headers.iter().enumerate() {
-                let (name, unit) = name_and_unit(header);
+                // `name/unit` names the column only with a unit of its (`vout/vin` is a ratio).
+                let (name, unit) = match name_and_unit(header) {
+                    (_, _, Some((n, u))) if n.eq_ignore_ascii_case(col.name) && power(u, col.unit).is_some() => (n, u),
+                    (name, unit, _) => (name, unit),
+                };
                 if !name.eq_ignore_ascii_case(col.name) {
                     continue;
                 }
@@ -232,13 +238,14 @@ mod tests {
     #[test]
     fn headers_are_found_in_any_case_with_a_unit_of_theirs() {
         let wanted = [Column::required("time", "s"), Column::optional("duty", ""), Column::optional("il", "A"), Column::optional("rload", "Ω")];
-        let found = find(&["Time (us)", "DUTY [%]", "IL [mA]", "rload [kOhm]"], &wanted).unwrap();
+        let found = find(&["Time (us)", "DUTY [%]", "IL/mA", "rload [kOhm]"], &wanted).unwrap();
         let powers: Vec<i32> = found.iter().map(|f| f.unwrap().power).collect();
         assert_eq!(powers, [-6, -2, -3, 3]);
         let millivolts = Found { index: 0, power: -3 };
         assert_eq!(millivolts.si(1940.0), 1.94, "as if written in volts");
         assert_eq!(Found { index: 0, power: 3 }.si(2.2), 2200.0);
         assert_eq!(find(&["time", "x"], &wanted).unwrap()[1], None, "an optional column may be absent");
+        assert_eq!(find(&["time", "il/vout"], &wanted).unwrap()[2], None, "a ratio of two columns is another column");
         let cases: [(&[&str], &str); 4] = [
             (&["time [V]"], "`V` is not a unit of `time`"),
             (&["time", "duty [ms]"], "which is read in a ratio"),
