@@ -133,6 +133,15 @@ impl ClMove {
         Self::at(cl.map_or(f64::NAN, |e| e.value), cl.map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]), cl_before)
     }
 
+    /// Cl not identified where `misfit` (its model's inductor current against the measured one)
+    /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]).
+    pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>) {
+        if let Some(misfit) = misfit.filter(crate::CurrentMisfit::contradicts) {
+            self.ci95 = [0.0, f64::INFINITY];
+            self.current_misfit = Some(misfit);
+        }
+    }
+
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
     pub(crate) fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
         let mut cl =

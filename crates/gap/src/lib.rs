@@ -369,11 +369,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // A model whose inductor current the measured one matches only through an implausible
         // probe gain has the wrong impedance: its Cl is not the converter's.
         // (Switched data, as the model sees it: the duty delayed where it is late.)
-        let misfit = final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est));
-        if let Some(misfit) = misfit.filter(CurrentMisfit::contradicts) {
-            last.cl.ci95 = [0.0, f64::INFINITY];
-            last.cl.current_misfit = Some(misfit);
-        }
+        last.cl.held_to_current(final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est)));
         let at_fidelity;
         (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95);
         (None, at_fidelity)

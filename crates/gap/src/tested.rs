@@ -70,10 +70,8 @@ impl TestedCl {
     /// Not identified where the nominal's inductor current at this Cl contradicts the measured
     /// one ([`CurrentMisfit`]: the nominal's impedance is not the converter's).
     pub(crate) fn against_current(mut self, data: &DataSet, nominal: &Params, n_est: usize) -> Self {
-        if let Some(misfit) = CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est).filter(CurrentMisfit::contradicts) {
-            (self.cl.ci95, self.at_fidelity) = ([0.0, f64::INFINITY], false);
-            self.cl.current_misfit = Some(misfit);
-        }
+        self.cl.held_to_current(CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est));
+        self.at_fidelity &= self.cl.current_misfit.is_none();
         self
     }
 
