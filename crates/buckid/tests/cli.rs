@@ -629,12 +629,6 @@ fn identify_tests_the_interval_on_a_circuits_data() {
     assert!(stdout.contains("not identified"), "{stdout}");
 }
 
-/// A ceramic that follows neither of the model's two bias laws (the third generator's
-/// `Cl₀/√(1 + (v/V₀)²)`): the reciprocal law fits better by a likelihood ratio of 2748 and the
-/// quadratic's Cl lies 4 % above it, yet the better law still misses vout above its noise floor,
-/// so neither is the ceramic's shape. Judged on the worse law's residual, Cl was "not
-/// identified" (a gross miss of 7.6 floors); with the better law's own interval it missed the
-/// truth. Judged on the better law's fit, its interval spanning both laws' Cl, it holds it.
 /// A lab buck with five effects whose selection ended with L −39 % and Cl 16 times too large,
 /// the LC resonance kept (`gap::current`): 234 [229, 241] µF for 14.4 µF. Its model's inductor
 /// current matches the measured one only through a probe gain of ×0.60, so its impedance, and
@@ -649,6 +643,12 @@ fn a_model_with_the_wrong_impedance_is_not_identified() {
     assert!((gain - 1.0).abs() > gap::PROBE_GAIN_TOLERANCE, "{cl}");
 }
 
+/// A ceramic that follows neither of the model's two bias laws (the third generator's
+/// `Cl₀/√(1 + (v/V₀)²)`): the reciprocal law fits better by a likelihood ratio of 2748 and the
+/// quadratic's Cl lies 4 % above it, yet the better law still misses vout above its noise floor,
+/// so neither is the ceramic's shape. Judged on the worse law's residual, Cl was "not
+/// identified" (a gross miss of 7.6 floors); with the better law's own interval it missed the
+/// truth. Judged on the better law's fit, its interval spanning both laws' Cl, it holds it.
 #[test]
 fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
     let (dx, truth) = diagnose_third("pol-single-2301");

@@ -94,6 +94,10 @@ pub struct Before {
     /// [`effect::GROSS_MISS_FLOORS`] noise floors: that multiple (Cl not identified).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_misses_by_floors: Option<f64>,
+    /// When the verdict is `none` and the nominal's inductor current contradicts the measured
+    /// one ([`CurrentMisfit`]): how (Cl not identified).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cl_current_misfit: Option<CurrentMisfit>,
 }
 
 impl Before {
@@ -110,9 +114,19 @@ impl Before {
             cl_check_skipped: None,
             cl_widened_by: None,
             cl_misses_by_floors: None,
+            cl_current_misfit: None,
         };
         match tested.map(|t| t.cl) {
-            Some(t) => Self { cl: t.estimate, cl_ci95: t.ci95, cl_check: t.check, cl_check_skipped: t.check_skipped, cl_widened_by: t.widened_by, cl_misses_by_floors: t.misses_by_floors, ..before },
+            Some(t) => Self {
+                cl: t.estimate,
+                cl_ci95: t.ci95,
+                cl_check: t.check,
+                cl_check_skipped: t.check_skipped,
+                cl_widened_by: t.widened_by,
+                cl_misses_by_floors: t.misses_by_floors,
+                cl_current_misfit: t.current_misfit,
+                ..before
+            },
             None => before,
         }
     }
@@ -124,6 +138,7 @@ impl Before {
             check_skipped: self.cl_check_skipped.clone(),
             widened_by: self.cl_widened_by,
             misses_by_floors: self.cl_misses_by_floors,
+            current_misfit: self.cl_current_misfit,
             ..ClMove::at(self.cl, self.cl_ci95, self.cl)
         }
     }
@@ -409,4 +424,29 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         nominal: opts.nominal,
         traces,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A nominal Cl voided by its current (the verdict `none`) says so in its sentence, as a
+    /// final model's does: the misfit is carried through [`Before`].
+    #[test]
+    fn the_nominals_current_misfit_reaches_its_sentence() {
+        let misfit = CurrentMisfit { probe_gain: 0.6, beyond_tolerance: 1.7, floor: 0.02 };
+        let before = Before {
+            model: "pwm",
+            nrmse: 0.1,
+            rms: 0.01,
+            cl: 10e-6,
+            cl_ci95: [0.0, f64::INFINITY],
+            cl_check: None,
+            cl_check_skipped: None,
+            cl_widened_by: None,
+            cl_misses_by_floors: None,
+            cl_current_misfit: Some(misfit),
+        };
+        assert!(before.cl_move().sentence(false).contains("probe gain of ×0.60"), "{}", before.cl_move().sentence(false));
+    }
 }
