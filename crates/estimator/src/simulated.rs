@@ -200,10 +200,16 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
     let mut conv = Converter::new(Params { fs: 1.0 / period, ..*p }, Mode::Switched);
+    // Each input is set where it changes (a record holds each duty for periods on end, and
+    // io and vin mostly constant): setting a value again changes nothing.
     let set_inputs = |conv: &mut Converter, k: usize| -> Result<(), EstimatorError> {
-        conv.set(VarId::Duty, data.duty[k]).map_err(plant)?;
-        conv.set(VarId::Io, data.io[k]).map_err(plant)?;
-        conv.set(VarId::Vin, data.vin[k]).map_err(plant)
+        let changed = |signal: &[f64]| k == 0 || signal[k].to_bits() != signal[k - 1].to_bits();
+        for (id, signal) in [(VarId::Duty, &data.duty), (VarId::Io, &data.io), (VarId::Vin, &data.vin)] {
+            if changed(signal) {
+                conv.set(id, signal[k]).map_err(plant)?;
+            }
+        }
+        Ok(())
     };
     set_inputs(&mut conv, 0)?;
     conv.initialize();
