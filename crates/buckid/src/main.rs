@@ -214,6 +214,16 @@ struct IdentifyArgs {
     save_data: Option<PathBuf>,
 }
 
+/// An error and its causes, each said once: a cause whose words the message so far already
+/// ends with is not repeated (the library errors print their cause, `"{path}: {source}"`, and
+/// also chain it, which read "No such file or directory (os error 2)" twice).
+fn message(e: &anyhow::Error) -> String {
+    e.chain().skip(1).fold(e.to_string(), |text, cause| {
+        let cause = cause.to_string();
+        if text.ends_with(&cause) { text } else { format!("{text}: {cause}") }
+    })
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -226,7 +236,7 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             std::process::ExitCode::FAILURE
         }
     }

@@ -154,8 +154,16 @@ fn bad_data_files_fail_with_a_message_naming_the_problem() {
         assert!(stderr(&o).contains(needle), "{name}: {:?} lacks {needle:?}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"), "{name}: {}", stderr(&o));
     }
-    let o = buckid(&["identify", "--data", dir.path().join("absent.csv").to_str().unwrap()]);
-    assert!(!o.status.success() && stderr(&o).contains("absent.csv"), "{}", stderr(&o));
+    // A missing file is named, with the system's reason said once (it was printed twice).
+    let absent = dir.path().join("absent.csv");
+    for args in [["identify", "--data"], ["diagnose", "--sweep"]] {
+        let o = buckid(&[args[0], args[1], absent.to_str().unwrap()]);
+        let err = stderr(&o);
+        let line = err.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
+        assert!(!o.status.success() && line.contains("absent.csv"), "{err}");
+        let reason = line.rsplit(": ").next().unwrap_or_default();
+        assert_eq!(line.matches(reason).count(), 1, "{line}");
+    }
 }
 
 /// A spreadsheet's export in a locale with a decimal comma: semicolons, headers in any case with
