@@ -57,18 +57,22 @@ impl CurrentMisfit {
     pub fn contradicts(&self) -> bool {
         self.beyond_tolerance > MISFIT_FLOORS * self.floor
     }
-}
 
-impl std::fmt::Display for CurrentMisfit {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "not identified: the model's inductor current matches the measured one only through a probe gain of ×{:.2} (a probe is within ±{:.0} %; {:.0} mA RMS beyond that, {:.0}× il's noise floor): its impedance √(L/C) is not the converter's, nor its Cl",
+    /// Why Cl is not identified, in words.
+    pub fn reason(&self) -> String {
+        format!(
+            "the model's inductor current matches the measured one only through a probe gain of ×{:.2} (a probe is within ±{:.0} %; {:.0} mA RMS beyond that, {:.0}× il's noise floor): its impedance √(L/C) is not the converter's, nor its Cl",
             self.probe_gain,
             100.0 * PROBE_GAIN_TOLERANCE,
             1e3 * self.beyond_tolerance,
             self.beyond_tolerance / self.floor
         )
+    }
+}
+
+impl std::fmt::Display for CurrentMisfit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "not identified: {}", self.reason())
     }
 }
 

@@ -119,7 +119,12 @@ impl ClMove {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
         if let Some(misfit) = &self.current_misfit {
-            test += &format!("; {misfit}");
+            // A second reason joins the first rather than saying "not identified" again.
+            if self.misses_by_floors.is_some() {
+                test += &format!("; and {}", misfit.reason());
+            } else {
+                test += &format!("; {misfit}");
+            }
         }
         if at_fidelity {
             test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * crate::CL_FIDELITY);
@@ -1059,6 +1064,21 @@ mod tests {
         assert!(gross_miss(13.0 * floor, Some(floor), 0.2).is_some_and(|k| (k - 13.0).abs() < 1e-9));
         assert_eq!(gross_miss(4.0 * floor, Some(floor), 0.05), None);
         assert_eq!(gross_miss(1.0, None, 1.0), None);
+    }
+
+    /// Two reasons Cl is not identified, a gross miss and an inductor current no probe
+    /// explains, make one verdict: "not identified" is said once, both reasons after it.
+    #[test]
+    fn two_reasons_make_one_not_identified() {
+        let mut cl = ClMove::at(14.4e-6, [0.0, f64::INFINITY], 10e-6);
+        cl.misses_by_floors = Some(184.6);
+        cl.current_misfit = Some(crate::CurrentMisfit { probe_gain: 0.79, beyond_tolerance: 0.431, floor: 0.02 });
+        let sentence = cl.sentence(false);
+        assert_eq!(sentence.matches("not identified").count(), 1, "{sentence}");
+        assert!(sentence.contains("184.6× its noise floor") && sentence.contains("probe gain of ×0.79"), "{sentence}");
+        cl.misses_by_floors = None;
+        let sentence = cl.sentence(false);
+        assert!(sentence.contains("; not identified: the model's inductor current"), "{sentence}");
     }
 
     #[test]
