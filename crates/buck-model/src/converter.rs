@@ -843,11 +843,7 @@ impl Converter {
                 self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, left)
             };
             let (levels, n) = self.thresholds(topology, gate);
-            let crossed = if n == 0 || event == MAX_EVENTS || self.cannot_cross(circuit, &end, &u, &levels[..n]) {
-                None
-            } else {
-                self.cross(circuit, &end, &u, left, &levels[..n])
-            };
+            let crossed = if n == 0 || event == MAX_EVENTS || self.cannot_cross(circuit, &end, &u, &levels[..n]) { None } else { self.cross(circuit, &end, &u, left, &levels[..n]) };
             let Some(t) = crossed else {
                 self.commit(&end);
                 return;
