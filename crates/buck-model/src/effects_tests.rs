@@ -38,11 +38,6 @@ fn switch_resistance_adds_to_rl() {
     }
 }
 
-/// Unequal switches (a 50 mΩ high side, a 20 mΩ low side): the inductor path carries each
-/// for its share of the period, so `avg(vout) = d·U − (RL + d·Rhs + (1−d)·Rls)·io`. Exact for
-/// the averaged model; with L = 1 mH (and RL = 2 Ω to damp it) the switched current is a
-/// straight line to within `T/τ ≈ 6e-3` of its 11 mA ripple, so its mean over each interval is
-/// `io` to 5 µA; tolerance 1e-6 V. The averaged DC operating point and its inverse agree.
 /// A synchronous rectifier's body diode shares its reverse current beyond the knee
 /// `V_bd/Rsw` (7 A through 0.1 Ω): at 20 A the low side holds the node at `−V_bd` all
 /// off-time, not at `−Rsw·il`, so by volt-second balance `avg(vout) = d·(U − Rsw·io) −
@@ -71,6 +66,11 @@ fn a_switchs_body_diode_shares_its_reverse_current_beyond_the_knee() {
     assert_relative_eq!(settled(with_slope, 20.0), d * (12.0 - r * 20.0) - (1.0 - d) * (drop + r_pair * 20.0) - rl * 20.0, epsilon = 2e-5);
 }
 
+/// Unequal switches (a 50 mΩ high side, a 20 mΩ low side): the inductor path carries each
+/// for its share of the period, so `avg(vout) = d·U − (RL + d·Rhs + (1−d)·Rls)·io`. Exact for
+/// the averaged model; with L = 1 mH (and RL = 2 Ω to damp it) the switched current is a
+/// straight line to within `T/τ ≈ 6e-3` of its 11 mA ripple, so its mean over each interval is
+/// `io` to 5 µA; tolerance 1e-6 V. The averaged DC operating point and its inverse agree.
 #[test]
 fn unequal_switches_weigh_each_resistance_by_its_share_of_the_period() {
     let (d, io, rl) = (0.45, 0.5, 2.0);

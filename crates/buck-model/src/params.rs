@@ -252,10 +252,10 @@ impl Params {
     /// starts to share it [A]: where the channel's drop `r·|il|` reaches the diode's
     /// [`Params::body_diode_drop`]. A synchronous rectifier carries the inductor current from
     /// source to drain, and beyond this knee (6 A through 110 mΩ) the node is held near the
-    /// diode's drop, not pulled further by the channel: a third-generator lab buck swinging
-    /// ±10 A through 66/110 mΩ switches read 13 mV higher and rang 0.7 % harder than its
-    /// linear stand-in, its body diodes disabled, within 2.6 floors. `None` without a switch
-    /// resistance.
+    /// diode's drop, not pulled further by the channel. A third-generator lab buck swinging
+    /// ±10 A through 66/110 mΩ switches read 13 mV above its linear stand-in, its il swinging
+    /// 0.7 % wider; with the netlist's body diodes disabled the model met it within 2.6 noise
+    /// floors. `None` without a switch resistance.
     pub fn body_diode_knee(&self, r: f64) -> Option<f64> {
         (r > 0.0).then(|| self.body_diode_drop() / r)
     }

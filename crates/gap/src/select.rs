@@ -210,9 +210,9 @@ impl Stack {
         // switches' resistance to the volt, at fifty times the ohms (a 15 mΩ half bridge was
         // named a 0.76 Ω body diode on a 24 V buck). So there it refines a model that already
         // has the switches' resistance, never stands in for it.
-        // Nor do they, the switches' resistance in the model, where a switch carries enough
-        // reverse current for its body diode to share it (see `Params::body_diode_knee`): there
-        // the pair's drop grows with the diode's slope, not the channel's.
+        // It is offered too, once the switches' resistance is in the model, where the measured
+        // il takes a switch past the knee at which its body diode shares the reverse current
+        // (`Params::body_diode_knee`): there the pair's drop grows with the diode's slope.
         let switches = self.free.contains(&Free::SwitchResistance) || self.free.contains(&Free::RL);
         let sharing = self.free.contains(&Free::SwitchResistance) && load.reaches_a_knee(p);
         if (diode || (has("dead_time") && switches) || sharing) && !self.free.contains(&Free::DiodeResistance) {
