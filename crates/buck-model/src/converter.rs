@@ -3,7 +3,7 @@ use nalgebra::{Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
 use crate::digital::{Control, Digital};
-use crate::flow::{Inp, Ladder, Mat, Point, Transition, Watch, il_slope, pad};
+use crate::flow::{Ladder, Point, Transition, Watch, pad};
 use crate::lti::Lti;
 use crate::variables::{self, Type, VarId};
 use crate::{Mode, ModelError, Params};
@@ -117,23 +117,6 @@ enum Topology {
     HighDiode,
     /// Everything off, `il` held at 0; the switch node floats at the output.
     Blocked,
-    /// High-side switch carrying `il < 0` beyond its knee ([`Params::body_diode_knee`]): its
-    /// body diode shares the current, the node held near `vin + V_bd`.
-    HighShared,
-    /// Low-side switch carrying `il > 0` beyond its knee: its body diode shares the current,
-    /// the node held near `−V_bd`.
-    LowShared,
-}
-
-/// What a state event at a level of `il` changes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Level {
-    /// A conducting diode's current reaches zero: it blocks.
-    Zero,
-    /// `|il|` reaches `isat`.
-    Saturation,
-    /// A switch's reverse current reaches the knee of its body diode.
-    Knee,
 }
 
 /// Identity of a linear circuit: series resistance, incremental inductance, load capacitance
@@ -151,9 +134,6 @@ struct Circuit {
 struct Piece {
     step: Transition,
     circuit: Circuit,
-    /// The circuit's `A` and `B` (padded), for `il`'s slope at the piece's ends.
-    a: Mat,
-    b: Inp,
 }
 
 /// A buck converter that advances exactly over steps of any length.
@@ -219,9 +199,6 @@ pub struct Converter {
     vout_map: ([f64; 4], f64),
     /// Saturation region when `|il| = isat` exactly (after an event): −1, 0 or +1.
     sat_region: i8,
-    /// Whether a switch's body diode shares the current when `il` is exactly at its knee (after
-    /// an event).
-    diode_sharing: bool,
     /// The next piece starts a new period and must latch the duty first.
     at_period_start: bool,
     /// Averages `[il, vc, vcl, ic]` over the last completed period.
@@ -266,7 +243,6 @@ impl Converter {
             slew: None,
             at_edge: true,
             sat_region: 0,
-            diode_sharing: false,
             at_period_start: true,
             last_average: Vector4::zeros(),
             last_io_average: 0.0,
@@ -359,7 +335,6 @@ impl Converter {
         self.slew = None;
         self.at_edge = true;
         self.sat_region = 0;
-        self.diode_sharing = false;
         self.cl_now = self.params.cl_at(s.vo);
         self.vcl_last_start = None;
         self.last_average = self.x;
@@ -679,8 +654,6 @@ impl Converter {
     /// What conducts under `gate` in the current state.
     fn topology(&mut self, gate: Gate) -> Topology {
         match gate {
-            Gate::High if self.shares_with_diode(gate) => Topology::HighShared,
-            Gate::Low if self.shares_with_diode(gate) => Topology::LowShared,
             Gate::High => Topology::High,
             Gate::Low => Topology::Low,
             Gate::Averaged => Topology::Averaged,
@@ -694,36 +667,6 @@ impl Converter {
                 self.blocked = true;
                 Topology::Blocked
             }
-        }
-    }
-
-    /// The level of `il` at which the switch that `gate` turns on carries enough reverse
-    /// current for its body diode to share it (see [`Params::body_diode_knee`]): above `+knee`
-    /// for the low side, below `−knee` for the high side; `None` where no switch conducts, for
-    /// a diode buck, or without a switch resistance.
-    fn knee_level(&self, gate: Gate) -> Option<f64> {
-        if self.params.asynchronous() {
-            return None;
-        }
-        let p = &self.params;
-        match gate {
-            Gate::High => p.body_diode_knee(p.switch_resistance).map(|k| -k),
-            Gate::Low => p.body_diode_knee(p.switch_resistance * p.low_side_ratio),
-            _ => None,
-        }
-    }
-
-    /// Whether the body diode of the switch `gate` turns on shares its reverse current: by
-    /// value, or as recorded at the knee.
-    fn shares_with_diode(&self, gate: Gate) -> bool {
-        let Some(level) = self.knee_level(gate) else { return false };
-        let beyond = (self.x[0] - level) * level.signum();
-        if beyond > 0.0 {
-            true
-        } else if beyond < 0.0 {
-            false
-        } else {
-            self.diode_sharing
         }
     }
 
@@ -755,14 +698,6 @@ impl Converter {
             Topology::LowDiode => (r_diode, -p.low_diode_drop()),
             Topology::HighDiode => (r_diode, vin + p.body_diode_drop()),
             Topology::Blocked => (p.rl, 0.0),
-            Topology::HighShared => {
-                let (r, drop) = p.shared_with_body_diode(p.switch_resistance);
-                (p.rl + r, vin + drop)
-            }
-            Topology::LowShared => {
-                let (r, drop) = p.shared_with_body_diode(p.switch_resistance * p.low_side_ratio);
-                (p.rl + r, -drop)
-            }
         };
         let blocked = topology == Topology::Blocked;
         let l = if !blocked && self.region() != 0 { p.l * (1.0 - p.inductor_saturation) } else { p.l };
@@ -770,39 +705,31 @@ impl Converter {
     }
 
     /// Levels of `il` whose crossing ends the piece, each with the side (+1 above, −1 below)
-    /// the current lies on now and what its crossing changes.
-    fn thresholds(&self, topology: Topology, gate: Gate) -> ([(f64, f64, Level); 3], usize) {
-        let mut out = [(0.0, 0.0, Level::Zero); 3];
+    /// the current lies on now.
+    fn thresholds(&self, topology: Topology) -> ([(f64, f64); 3], usize) {
+        let mut out = [(0.0, 0.0); 3];
         let mut n = 0;
         match topology {
             Topology::Blocked => return (out, 0),
             Topology::LowDiode => {
-                out[0] = (0.0, 1.0, Level::Zero);
+                out[0] = (0.0, 1.0);
                 n = 1;
             }
             Topology::HighDiode => {
-                out[0] = (0.0, -1.0, Level::Zero);
+                out[0] = (0.0, -1.0);
                 n = 1;
             }
-            Topology::High | Topology::Low | Topology::HighShared | Topology::LowShared => {
-                if let Some(knee) = self.knee_level(gate) {
-                    let sharing = matches!(topology, Topology::HighShared | Topology::LowShared);
-                    // Beyond the knee (sharing) the current lies on the knee's far side.
-                    out[0] = (knee, if sharing == (knee > 0.0) { 1.0 } else { -1.0 }, Level::Knee);
-                    n = 1;
-                }
-            }
-            Topology::Averaged => {}
+            _ => {}
         }
         if self.params.inductor_saturation > 0.0 {
             let isat = self.params.isat;
             match self.region() {
-                1 => out[n] = (isat, 1.0, Level::Saturation),
-                -1 => out[n] = (-isat, -1.0, Level::Saturation),
+                1 => out[n] = (isat, 1.0),
+                -1 => out[n] = (-isat, -1.0),
                 _ => {
-                    out[n] = (isat, -1.0, Level::Saturation);
+                    out[n] = (isat, -1.0);
                     n += 1;
-                    out[n] = (-isat, 1.0, Level::Saturation);
+                    out[n] = (-isat, 1.0);
                 }
             }
             n += 1;
@@ -842,8 +769,8 @@ impl Converter {
                 let i = self.ladder(circuit);
                 self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, left)
             };
-            let (levels, n) = self.thresholds(topology, gate);
-            let crossed = if n == 0 || event == MAX_EVENTS || self.cannot_cross(circuit, &end, &u, &levels[..n]) { None } else { self.cross(circuit, &end, &u, left, &levels[..n]) };
+            let (levels, n) = self.thresholds(topology);
+            let crossed = if n == 0 || event == MAX_EVENTS { None } else { self.cross(circuit, &end, &u, left, &levels[..n]) };
             let Some(t) = crossed else {
                 self.commit(&end);
                 return;
@@ -855,39 +782,24 @@ impl Converter {
         }
     }
 
-    /// Whether `il` certainly reaches none of `levels` on the way from the current point to
-    /// `end` of the piece `circuit` (inputs `u`), told from the ends alone as
-    /// [`first_crossing`] tells it (not reached at `end`, and not first moving towards a level
-    /// and then away), with the slopes from the cached transition's circuit: a piece that
-    /// crosses nothing needs no [`Ladder`] (building one costs an exponential). `false` where
-    /// that circuit is not cached.
-    fn cannot_cross(&self, circuit: Circuit, end: &Point, u: &Vector2<f64>, levels: &[(f64, f64, Level)]) -> bool {
-        let Some(piece) = self.cache.iter().find(|p| p.circuit == circuit) else { return false };
-        let slope = |x: &Vector4<f64>| il_slope(&piece.a, &piece.b, x, u);
-        let (at_start, at_end) = (slope(&self.x), slope(&end.x));
-        levels.iter().all(|&(level, side, _)| side * (end.x[0] - level) > 0.0 && !(-side * (at_start - 0.0) > 0.0 && -side * (at_end - 0.0) < 0.0))
-    }
-
     /// Moves to the first state event at one of `levels` on the way from the current point to
     /// `end`, `tau` later in the same piece (inputs `u`), and crosses it: the time that took, or
     /// `None` (and nothing moved) if there is none.
-    fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(f64, f64, Level)]) -> Option<f64> {
+    fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)]) -> Option<f64> {
         let start = Point { t: 0.0, x: self.x, z: self.z };
         let tol = ROOT_TOL * self.params.period();
         let i = self.ladder(circuit);
         let ladder = &self.ladders[i].1;
-        let (mut at, (level, _, kind)) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
+        let (mut at, level) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
         at.x[0] = level;
-        // Beyond the level when |il| keeps growing (the sign of dil/dt is the same on both
-        // sides: for both inductances, and for a switch and its diode at the knee, where the node
-        // voltage is continuous), so this does not depend on the side just left.
+        // Above isat when |il| keeps growing (the sign of dil/dt is the same for both
+        // inductances, so this does not depend on the region just left).
         let dil = ladder.dil(&at.x, u);
-        let beyond = dil * level > 0.0;
         self.commit(&at);
-        match kind {
-            Level::Zero => self.blocked = true,
-            Level::Saturation => self.sat_region = if beyond { level.signum() as i8 } else { 0 },
-            Level::Knee => self.diode_sharing = beyond,
+        if level == 0.0 {
+            self.blocked = true;
+        } else {
+            self.sat_region = if dil * level > 0.0 { level.signum() as i8 } else { 0 };
         }
         Some(at.t)
     }
@@ -926,10 +838,9 @@ impl Converter {
         if let Some(i) = self.cache.iter().position(|p| p.step.h.to_bits() == tau.to_bits() && p.circuit == circuit) {
             return i;
         }
-        let lti = self.lti(circuit);
-        let d = lti.discretize(tau);
+        let d = self.lti(circuit).discretize(tau);
         let step = Transition { h: tau, ad: pad(&d.ad), bd: pad(&d.bd), ia: pad(&d.ia), ib: pad(&d.ib) };
-        let piece = Piece { step, circuit, a: pad(&lti.a), b: pad(&lti.b) };
+        let piece = Piece { step, circuit };
         if self.cache.len() < CACHE_SLOTS {
             self.cache.push(piece);
             self.cache.len() - 1
@@ -969,9 +880,9 @@ impl Converter {
 /// value at the extremum, located on `dil/dt`. Within one piece `il` is a smooth sum of
 /// exponentials far slower than the period (at most one extremum), which is what this relies
 /// on: inside the bracket there is one crossing, located on `il`. Both are located to `tol`.
-fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f64>, tau: f64, levels: &[(f64, f64, Level)], tol: f64) -> Option<(Point, (f64, f64, Level))> {
-    let mut best: Option<(Point, (f64, f64, Level))> = None;
-    for &(level, side, kind) in levels {
+fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)], tol: f64) -> Option<(Point, f64)> {
+    let mut best: Option<(Point, f64)> = None;
+    for &(level, side) in levels {
         let crossing = Watch { order: 0, level, sign: side };
         let hi = if ladder.value(crossing, &end.x, u) <= 0.0 {
             tau
@@ -988,7 +899,7 @@ fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f
         };
         let at = ladder.descend(start, u, hi, crossing, tol);
         if best.is_none_or(|(b, _)| at.t < b.t) {
-            best = Some((at, (level, side, kind)));
+            best = Some((at, level));
         }
     }
     best

@@ -16,20 +16,15 @@ use nalgebra::{DMatrix, SMatrix, Vector2, Vector4};
 /// circuits are padded with zero rows and columns.
 const NX: usize = 4;
 /// State matrix (padded).
-pub(crate) type Mat = SMatrix<f64, NX, NX>;
+type Mat = SMatrix<f64, NX, NX>;
 /// Input matrix (padded), inputs `[u_sw, io]`.
-pub(crate) type Inp = SMatrix<f64, NX, 2>;
+type Inp = SMatrix<f64, NX, 2>;
 
 /// `m` (at most `NX` rows) padded with zeros to `NX` rows.
 pub(crate) fn pad<const C: usize>(m: &DMatrix<f64>) -> SMatrix<f64, NX, C> {
     let mut out = SMatrix::<f64, NX, C>::zeros();
     out.view_mut((0, 0), m.shape()).copy_from(m);
     out
-}
-
-/// `dil/dt` of `dx/dt = A·x + B·u` at `x` under the inputs `u`.
-pub(crate) fn il_slope(a: &Mat, b: &Inp, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-    (a.row(0) * x)[0] + (b.row(0) * u)[0]
 }
 
 /// Largest `‖A·h‖₁` of the shortest rung of a [`Ladder`], where the Taylor series are summed.
@@ -202,7 +197,7 @@ impl Ladder {
 
     /// `dil/dt` at the state `x` under the inputs `u`.
     pub fn dil(&self, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-        il_slope(&self.a, &self.b, x, u)
+        (self.a.row(0) * x)[0] + (self.b.row(0) * u)[0]
     }
 
     /// The value of `watch` at the state `x`.

@@ -248,26 +248,6 @@ impl Params {
         if self.diode_drop > 0.0 { self.diode_drop } else { BODY_DIODE_DROP }
     }
 
-    /// Reverse current of a conducting switch of on-resistance `r` at which its body diode
-    /// starts to share it [A]: where the channel's drop `r·|il|` reaches the diode's
-    /// [`Params::body_diode_drop`]. A synchronous rectifier carries the inductor current from
-    /// source to drain, and beyond this knee (6 A through 110 mΩ) the node is held near the
-    /// diode's drop, not pulled further by the channel. A third-generator lab buck swinging
-    /// ±10 A through 66/110 mΩ switches read 13 mV above its linear stand-in, its il swinging
-    /// 0.7 % wider; with the netlist's body diodes disabled the model met it within 2.6 noise
-    /// floors. `None` without a switch resistance.
-    pub fn body_diode_knee(&self, r: f64) -> Option<f64> {
-        (r > 0.0).then(|| self.body_diode_drop() / r)
-    }
-
-    /// A switch of on-resistance `r` and its body diode in parallel beyond the knee: the
-    /// series resistance and the drop of the pair, `r ∥ Rd` and `V_bd·r/(r + Rd)` (the diode's
-    /// slope resistance `diode_resistance`; at zero the diode clamps the node at `V_bd`).
-    pub fn shared_with_body_diode(&self, r: f64) -> (f64, f64) {
-        let rd = self.diode_resistance;
-        (r * rd / (r + rd), self.body_diode_drop() * r / (r + rd))
-    }
-
     /// Drop of the diode that carries a positive il with both switches off [V]: the freewheeling
     /// diode of the asynchronous buck, else the low-side switch's body diode.
     pub fn low_diode_drop(&self) -> f64 {

@@ -638,41 +638,17 @@ fn identify_tests_the_interval_on_a_circuits_data() {
 }
 
 /// A lab buck with five effects whose selection ended with L −39 % and Cl 16 times too large,
-/// the LC resonance kept: 234 [229, 241] µF for 14.4 µF. Its model's inductor current matched
-/// the measured one only through a probe gain of ×0.60 (`gap::current`), which voided that Cl.
-/// With the switches' body diodes in the model the selection now stops at the saturating
-/// inductor and the switches' resistance, 15 floors short: a gross miss. Either way the
-/// capture gets no confident Cl, and the JSON says why.
+/// the LC resonance kept (`gap::current`): 234 [229, 241] µF for 14.4 µF. Its model's inductor
+/// current matches the measured one only through a probe gain of ×0.60, so its impedance, and
+/// its Cl, is not the converter's: Cl is not identified, and the JSON says why.
 #[test]
 fn a_model_with_the_wrong_impedance_is_not_identified() {
     let (dx, _) = diagnose_third("lab-several-4101");
     let cl = &dx["selected"].as_array().and_then(|s| s.last()).expect("a selection")["cl"];
     let upper = cl["ci95"][1].as_f64();
     assert!(upper.is_none_or(|u| !u.is_finite()), "{cl}");
-    let gross = cl["misses_by_floors"].as_f64().is_some_and(|k| k > gap::GROSS_MISS_FLOORS);
-    let misfit = cl["current_misfit"]["probe_gain"].as_f64().is_some_and(|g| (g - 1.0).abs() > gap::PROBE_GAIN_TOLERANCE);
-    assert!(gross || misfit, "{cl}");
-}
-
-/// A synchronous lab buck whose 66/110 mΩ MOSFETs carry ±10 A of PRBS transients (third
-/// generator, level-3 channels with body diodes): beyond `V_bd/Rsw` (6 A through the low side)
-/// each body diode shares its switch's reverse current. Without that in the model, the
-/// selection took a low side 2.6 times the high side (true 1.68), 47 mΩ for 66, and Cl was not
-/// identified (10 floors left); with it, the switches, their ratio and Cl come out as built.
-#[test]
-fn a_switchs_body_diode_shares_its_current_beyond_the_knee() {
-    let (dx, truth) = diagnose_third("lab-single-1902");
-    let selected = dx["selected"].as_array().expect("a selection");
-    let names: Vec<&str> = selected.iter().filter_map(|e| e["name"].as_str()).collect();
-    assert!(names.starts_with(&["switch_resistance", "unequal_switches", "diode_resistance"]), "{names:?}");
-    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
-    let (hs, ls) = (f(&truth["fet_hs"]["ron_measured"]), f(&truth["fet_ls"]["ron_measured"]));
-    let rsw = f(&selected[0]["params"]["switch_resistance"]);
-    let ratio = f(&selected[1]["params"]["low_side_ratio"]);
-    assert!((rsw / hs - 1.0).abs() < 0.02 && (ratio / (ls / hs) - 1.0).abs() < 0.02, "{rsw} Ω ×{ratio} for {hs} Ω ×{}", ls / hs);
-    let cl = &selected.last().unwrap()["cl"];
-    let (lo, hi, cl_true) = (f(&cl["ci95"][0]), f(&cl["ci95"][1]), f(&truth["cl_true"]));
-    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.1, "Cl {} [{lo:e}, {hi:e}] for {cl_true:e}", cl["estimate"]);
+    let gain = cl["current_misfit"]["probe_gain"].as_f64().expect("the current's misfit");
+    assert!((gain - 1.0).abs() > gap::PROBE_GAIN_TOLERANCE, "{cl}");
 }
 
 /// A ceramic that follows neither of the model's two bias laws (the third generator's

@@ -177,9 +177,7 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     // A divider's or a probe's gain error (its zero error is a resistance's drop at a constant
     // load: left to the forward selection, which names the circuit first).
     adds.push(("sensor_gain", Free::VoutGainError, candidate_start("sensor_gain", Free::VoutGainError, &stack.params)?));
-    // A diode's slope: a diode buck's, or the body diodes' where they share the switches'
-    // reverse current (see `select::Load::reaches_a_knee`).
-    if diode || (stack.free.contains(&Free::SwitchResistance) && crate::select::Load::of(data).reaches_a_knee(&stack.params)) {
+    if diode {
         adds.push(("diode_resistance", Free::DiodeResistance, DIODE_RESISTANCE_STARTS[0].max(stack.params.diode_resistance)));
     }
     for (name, f, start) in adds {

@@ -169,7 +169,7 @@ impl Stack {
 
     /// The candidates on top of this model: each remaining effect's model and its starts.
     /// `ripple`: the data is switched, so an averaged model may add `switching_ripple`.
-    fn extensions(&self, nominal: &Params, ripple: bool, load: Load) -> Vec<Extension> {
+    fn extensions(&self, nominal: &Params, ripple: bool, io_mean: f64) -> Vec<Extension> {
         let has = |n: &str| self.effects.contains(&n);
         let mut out = Vec::new();
         if ripple && !self.switched {
@@ -210,12 +210,8 @@ impl Stack {
         // switches' resistance to the volt, at fifty times the ohms (a 15 mΩ half bridge was
         // named a 0.76 Ω body diode on a 24 V buck). So there it refines a model that already
         // has the switches' resistance, never stands in for it.
-        // It is offered too, once the switches' resistance is in the model, where the measured
-        // il takes a switch past the knee at which its body diode shares the reverse current
-        // (`Params::body_diode_knee`): there the pair's drop grows with the diode's slope.
         let switches = self.free.contains(&Free::SwitchResistance) || self.free.contains(&Free::RL);
-        let sharing = self.free.contains(&Free::SwitchResistance) && load.reaches_a_knee(p);
-        if (diode || (has("dead_time") && switches) || sharing) && !self.free.contains(&Free::DiodeResistance) {
+        if (diode || (has("dead_time") && switches)) && !self.free.contains(&Free::DiodeResistance) {
             out.push(self.freeing("diode_resistance", Free::DiodeResistance, &DIODE_RESISTANCE_STARTS, p.diode_resistance + PROBE_RESISTANCE));
         }
         // Where both switches are ever off (dead time, a diode buck's off-time), il charges the
@@ -232,7 +228,7 @@ impl Stack {
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         let in_model = |name: &str| has(name) || (diode && DIODE_TOPOLOGY.contains(&name));
         for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && (as_designed || !calibrates_reading(e.name))) {
-            let starts = e.starts(&self.params, load.io_mean);
+            let starts = e.starts(&self.params, io_mean);
             let mut s = self.clone();
             s.params = starts[0];
             s.free.extend(e.extra.iter().map(|&(f, _)| f));
@@ -392,31 +388,6 @@ pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) 
     items
         .filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound)
         .min_by(|a, b| (fit(a).calibrates_reading(), fit(a).aic).partial_cmp(&(fit(b).calibrates_reading(), fit(b).aic)).unwrap_or(std::cmp::Ordering::Equal))
-}
-
-/// What a record asks of the converter's switches: its mean load current, and the range of its
-/// measured inductor current (none without `il`).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Load {
-    io_mean: f64,
-    il_range: Option<(f64, f64)>,
-}
-
-impl Load {
-    pub(crate) fn of(data: &DataSet) -> Self {
-        let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
-        let il_range = data.il.as_ref().map(|il| il.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| (lo.min(i), hi.max(i))));
-        Self { io_mean, il_range }
-    }
-
-    /// Whether the measured current takes a switch of the synchronous circuit `p` beyond the
-    /// knee of its body diode: the low side's above it, or the high side's below minus it.
-    pub(crate) fn reaches_a_knee(&self, p: &Params) -> bool {
-        let Some((lo, hi)) = self.il_range.filter(|_| !p.asynchronous()) else { return false };
-        let low = p.body_diode_knee(p.switch_resistance * p.low_side_ratio).is_some_and(|k| hi > k);
-        let high = p.body_diode_knee(p.switch_resistance).is_some_and(|k| lo < -k);
-        low || high
-    }
 }
 
 /// Effects that make the buck asynchronous (a diode for its low side).
@@ -579,10 +550,10 @@ pub(crate) fn for_cl(
     }
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
-    let load = Load::of(data);
+    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
     // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
     // it; what makes the output-error and high-pass fits disagree is in the dynamics.
-    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, load).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, &against, extensions, 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -649,7 +620,7 @@ pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<Effe
 /// in the data (so an averaged model may add it).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn forward(data: &DataSet, nominal: &Params, first: &EffectFit, switched_nominal: bool, switched_data: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> (Vec<EffectFit>, String) {
-    let load = Load::of(data);
+    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
     let mut selected = vec![first.clone()];
     let mut stack = match Stack::of(&[first], nominal, first.cl.estimate, switched_nominal) {
         Ok(s) => s,
@@ -678,7 +649,7 @@ pub(crate) fn forward(data: &DataSet, nominal: &Params, first: &EffectFit, switc
             Err(e) => break format!("the model so far cannot be refitted: {e}"),
         };
         stack.params = against.fit.params;
-        let mut extensions = stack.extensions(nominal, switched_data, load);
+        let mut extensions = stack.extensions(nominal, switched_data, io_mean);
         let displaced = std::sync::Mutex::new(Vec::new());
         let try_one = |x: &Extension| {
             let t = x.trial(data, nominal, n_est, holdout);
@@ -749,7 +720,7 @@ pub(crate) fn forward(data: &DataSet, nominal: &Params, first: &EffectFit, switc
         let next = match next {
             None if swaps_left > 0 && !late_pending => {
                 let tried = displaced.into_inner().unwrap_or_default();
-                let swapped = swap(data, nominal, &selected, &stack, &tried, &against, switched_data, load, n_est, holdout, baseline);
+                let swapped = swap(data, nominal, &selected, &stack, &tried, &against, switched_data, io_mean, n_est, holdout, baseline);
                 swapped.map(|(k, t)| {
                     swaps_left -= 1;
                     let out = selected.remove(k);
@@ -795,7 +766,7 @@ fn swap(
     tried: &[Swap],
     against: &Candidate,
     switched_data: bool,
-    load: Load,
+    io_mean: f64,
     n_est: usize,
     holdout: f64,
     baseline: &Baseline,
@@ -816,7 +787,7 @@ fn swap(
             let k = owner(s.lost)?;
             let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
             let base = Stack::of(&others, nominal, stack.params.cl, stack.switched).ok()?;
-            let x = base.extensions(nominal, switched_data, load).into_iter().find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
+            let x = base.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
             let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
             t.not_nested = true;
             let (fit, cand) = judge(x.name, t, against, n_est, baseline);
