@@ -766,7 +766,7 @@ impl Converter {
             let end = if event == 0 {
                 self.whole(circuit, left, &u)
             } else {
-                let i = self.ladder(circuit);
+                let i = self.ladder(circuit, left);
                 self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, left)
             };
             let (levels, n) = self.thresholds(topology);
@@ -788,7 +788,7 @@ impl Converter {
     fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)]) -> Option<f64> {
         let start = Point { t: 0.0, x: self.x, z: self.z };
         let tol = ROOT_TOL * self.params.period();
-        let i = self.ladder(circuit);
+        let i = self.ladder(circuit, tau);
         let ladder = &self.ladders[i].1;
         let (mut at, level) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
         at.x[0] = level;
@@ -824,7 +824,7 @@ impl Converter {
     /// exponential, and shared by the pieces of the period and their state events).
     fn whole(&mut self, circuit: Circuit, tau: f64, u: &Vector2<f64>) -> Point {
         if self.params.cap_dc_bias > 0.0 {
-            let i = self.ladder(circuit);
+            let i = self.ladder(circuit, tau);
             return self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, u, tau);
         }
         let i = self.cached(circuit, tau);
@@ -852,22 +852,27 @@ impl Converter {
         }
     }
 
-    /// Index of the cached [`Ladder`] of `circuit`, building it on a miss.
-    fn ladder(&mut self, circuit: Circuit) -> usize {
-        if let Some(i) = self.ladders.iter().position(|(c, _)| *c == circuit) {
-            return i;
-        }
-        let lti = self.lti(circuit);
-        let entry = (circuit, Ladder::new(pad(&lti.a), pad(&lti.b), self.params.period()));
-        if self.ladders.len() < LADDER_SLOTS {
-            self.ladders.push(entry);
-            self.ladders.len() - 1
-        } else {
-            let i = self.next_ladder;
-            self.ladders[i] = entry;
-            self.next_ladder = (i + 1) % LADDER_SLOTS;
-            i
-        }
+    /// Index of the cached [`Ladder`] of `circuit`, building it on a miss, grown for a piece of
+    /// `length`.
+    fn ladder(&mut self, circuit: Circuit, length: f64) -> usize {
+        let i = match self.ladders.iter().position(|(c, _)| *c == circuit) {
+            Some(i) => i,
+            None => {
+                let lti = self.lti(circuit);
+                let entry = (circuit, Ladder::new(pad(&lti.a), pad(&lti.b), self.params.period()));
+                if self.ladders.len() < LADDER_SLOTS {
+                    self.ladders.push(entry);
+                    self.ladders.len() - 1
+                } else {
+                    let i = self.next_ladder;
+                    self.ladders[i] = entry;
+                    self.next_ladder = (i + 1) % LADDER_SLOTS;
+                    i
+                }
+            }
+        };
+        self.ladders[i].1.grow(length);
+        i
     }
 }
 

@@ -84,6 +84,7 @@ impl Transition {
 }
 
 /// `F = e^{Ah} − I`, `Γ₁(h)`, `Γ₂(h)` of one step length `h`.
+#[derive(Debug, Clone)]
 struct Phi {
     h: f64,
     f: Mat,
@@ -162,12 +163,19 @@ pub(crate) struct Watch {
 /// matrix-vector products; `depth` is 6 for the default circuit, 18 at the stiff corner
 /// `Cl` = 1 nF) and the polynomial for the rest, instead of an exponential. Building a ladder
 /// costs about as much as one exponential, so circuits that change every period
-/// (`cap_dc_bias`) can afford one too.
+/// (`cap_dc_bias`) can afford one too. The rungs are built from the shortest up only as far as
+/// the pieces asked of the ladder need ([`Ladder::grow`]): a dead-time interval needs none of
+/// the long ones. Each rung is the same whenever it is built.
 #[derive(Debug, Clone)]
 pub(crate) struct Ladder {
     a: Mat,
     b: Inp,
+    /// From the shortest up: `rungs[k].h = T·2ᵏ⁻ᵈᵉᵖᵗʰ`.
     rungs: Vec<Transition>,
+    /// The step of the longest rung built, which the next one doubles.
+    phi: Phi,
+    /// The longest rung there can be (`T`).
+    top: f64,
     /// Terms of the [`Tail`] beyond the first, for rounding-level truncation at the shortest rung.
     terms: usize,
 }
@@ -184,15 +192,19 @@ impl Ladder {
             bound *= nu / (terms + 2) as f64;
             terms += 1;
         }
-        let mut phi = Phi::taylor(&a, shortest);
+        let phi = Phi::taylor(&a, shortest);
         let mut rungs = Vec::with_capacity(depth as usize + 1);
         rungs.push(phi.transition(&b));
-        for _ in 0..depth {
-            phi = phi.doubled();
-            rungs.push(phi.transition(&b));
+        Self { a, b, rungs, phi, top, terms }
+    }
+
+    /// Builds the rungs up to the longest not beyond `length` (nor `T`): all a piece of that
+    /// length can use.
+    pub fn grow(&mut self, length: f64) {
+        while 2.0 * self.phi.h <= length.min(self.top) {
+            self.phi = self.phi.doubled();
+            self.rungs.push(self.phi.transition(&self.b));
         }
-        rungs.reverse();
-        Self { a, b, rungs, terms }
     }
 
     /// `dil/dt` at the state `x` under the inputs `u`.
@@ -207,7 +219,7 @@ impl Ladder {
     }
 
     fn shortest(&self) -> f64 {
-        self.rungs.last().map_or(0.0, |r| r.h)
+        self.rungs.first().map_or(0.0, |r| r.h)
     }
 
     /// The Taylor polynomial of the solution at `x`.
@@ -221,11 +233,11 @@ impl Ladder {
         Tail { d, terms: self.terms }
     }
 
-    /// `p` advanced by `length`.
+    /// `p` advanced by `length` (the ladder grown to it).
     pub fn reach(&self, p: &Point, u: &Vector2<f64>, length: f64) -> Point {
         let mut p = *p;
         let mut left = length;
-        for rung in &self.rungs {
+        for rung in self.rungs.iter().rev() {
             // Below the top rung left < 2·rung.h, so this runs at most once and the subtraction
             // is exact (Sterbenz).
             while rung.h <= left {
@@ -239,10 +251,11 @@ impl Ladder {
     /// The instant after `start`, not beyond `hi`, at which `watch` stops being positive (or the
     /// point at `hi` if it does not), given that it is positive from `start` until then. A
     /// bisection on the rungs (one trial each) brackets the instant to the shortest rung; the
-    /// tail's polynomial then gives it to `tol` by safeguarded Newton iteration.
+    /// tail's polynomial then gives it to `tol` by safeguarded Newton iteration. The ladder is
+    /// grown to `hi`.
     pub fn descend(&self, start: &Point, u: &Vector2<f64>, hi: f64, watch: Watch, tol: f64) -> Point {
         let mut p = *start;
-        for rung in &self.rungs {
+        for rung in self.rungs.iter().rev() {
             while p.t + rung.h <= hi {
                 let x = rung.state(&p.x, u);
                 if self.value(watch, &x, u) > 0.0 {
@@ -373,6 +386,18 @@ mod tests {
         (pad(&lti.a), pad(&lti.b))
     }
 
+    /// The ladder of `a`, `b` below `top`, with every rung built.
+    fn grown(a: Mat, b: Inp, top: f64) -> Ladder {
+        let mut ladder = Ladder::new(a, b, top);
+        ladder.grow(top);
+        ladder
+    }
+
+    /// The longest rung of the ladder below `tau`: the transition over `tau`.
+    fn top(a: Mat, b: Inp, tau: f64) -> Transition {
+        grown(a, b, tau).rungs.pop().expect("a ladder has a rung")
+    }
+
     /// Largest difference of the four blocks, relative to each block's largest entry.
     fn mismatch(t: &Transition, lti: &Lti, tau: f64) -> f64 {
         let d = lti.discretize(tau);
@@ -404,7 +429,7 @@ mod tests {
         let lambdas = [-2.0e7, -3.0e5, -1.0e2, 0.0];
         let a = Mat::from_diagonal(&Vector4::from_column_slice(&lambdas));
         let b = Inp::from_fn(|_, j| if j == 0 { 1.0 } else { 0.0 });
-        let t = &Ladder::new(a, b, tau).rungs[0];
+        let t = &top(a, b, tau);
         for (i, &l) in lambdas.iter().enumerate() {
             let g1 = if l == 0.0 { tau } else { (l * tau).exp_m1() / l };
             // (g1 − τ)/λ cancels for small λτ: its series τ²·Σ (λτ)ᵏ/(k+2)! instead.
@@ -437,7 +462,7 @@ mod tests {
             let (a, b) = padded(lti);
             let tol = if k == 1 { 1e-11 } else { 1e-12 };
             for tau in [1e-12, 0.37 * period, period, 7.0 * period] {
-                let err = mismatch(&Ladder::new(a, b, tau).rungs[0], lti, tau);
+                let err = mismatch(&top(a, b, tau), lti, tau);
                 assert!(err < tol, "circuit {k}, τ = {tau:e}: {err:e}");
             }
         }
@@ -452,7 +477,7 @@ mod tests {
         let x0 = Vector4::new(1.3, 5.8, 5.9, 0.0);
         for lti in circuits() {
             let (a, b) = padded(&lti);
-            let ladder = Ladder::new(a, b, period);
+            let ladder = grown(a, b, period);
             for (k, rung) in ladder.rungs.iter().enumerate() {
                 let err = mismatch(rung, &lti, rung.h);
                 assert!(err < 1e-12, "rung {k}: {err:e}");
@@ -483,7 +508,7 @@ mod tests {
         let period = 1.0 / 330e3;
         let lti = Params::default().piece_lti(0.1, 3.3e-6, 10e-6, false);
         let (a, b) = padded(&lti);
-        let ladder = Ladder::new(a, b, period);
+        let ladder = grown(a, b, period);
         let u = Vector2::new(12.0, 1.0);
         // vcl above vin: il falls until Cl has discharged below vin - RL·il, then rises.
         let x0 = Vector4::new(1.0, 5.9, 13.0, 0.0);
