@@ -29,6 +29,7 @@ use buck_model::variables::VarId;
 use buck_model::{Converter, Mode, Params, State};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::candidate::{Candidate, Traces, Validation};
 use crate::data::DataSet;
@@ -516,6 +517,9 @@ struct Minimum {
     /// Simulations it took (trial steps, and one per unknown for each Jacobian by differences).
     #[cfg_attr(not(test), expect(dead_code, reason = "the tests' measure of a minimum's cost"))]
     simulations: usize,
+    /// Trial steps it refused.
+    #[cfg_attr(not(test), expect(dead_code, reason = "the tests' measure of a minimum's path"))]
+    refusals: usize,
 }
 
 /// Minimizes the criterion over `[ln θ | start]` of `free` from `logs` (Levenberg–Marquardt on
@@ -523,6 +527,7 @@ struct Minimum {
 fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &DataSet, criterion: Criterion, il_weight: Option<f64>) -> Result<Minimum, EstimatorError> {
     let not_simulable = || EstimatorError::Fit("the simulation fails at the start values".into());
     let simulations = std::cell::Cell::new(1);
+    let mut refusals = 0;
     let by_differences = |logs: &[f64], r: &DVector<f64>| {
         simulations.set(simulations.get() + logs.len());
         jacobian(start, free, logs, estimation, criterion, il_weight, r).ok_or_else(not_simulable)
@@ -546,31 +551,57 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
         // nothing left to gain along this Jacobian. (Tried up to λ = 1e10, a minimum cost
         // twenty rejected simulations, a third of all a diagnosis ran.)
         let worth_trying = (cost / dof) * 1e-2;
+        // The next step worth a simulation from damping `lambda` on (raised where a step is not
+        // worth one), given the step last refused at this Jacobian; `None` when none is.
+        let plan = |lambda: &mut f64, refused: Option<&DVector<f64>>| -> Option<DVector<f64>> {
+            while *lambda < 1e10 {
+                let mut a = jtj.clone();
+                for i in 0..np {
+                    a[(i, i)] += *lambda * jtj[(i, i)].max(1e-30);
+                }
+                let Some(step) = step_within_range(&a, &jtr, &logs, free) else {
+                    *lambda *= 10.0;
+                    continue;
+                };
+                let largest = step.rows(0, free.len()).amax();
+                let step = &step * (MAX_LOG_STEP / largest.max(MAX_LOG_STEP));
+                if 2.0 * step.dot(&jtr) - step.dot(&(&jtj * &step)) <= worth_trying {
+                    return None;
+                }
+                // More damping that barely changes the step last refused (λ far below the
+                // curvature of every direction) is not worth its simulation either.
+                if refused.is_some_and(|last| (&step - last).norm() <= 0.1 * last.norm()) {
+                    *lambda *= 10.0;
+                    continue;
+                }
+                return Some(step);
+            }
+            None
+        };
+        let trial_of = |step: &DVector<f64>| -> Vec<f64> { logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect() };
         let mut accepted = None;
-        // The step last refused at this Jacobian: more damping that barely changes it (λ far
-        // below the curvature of every direction) is not worth its simulation either.
-        let mut refused: Option<DVector<f64>> = None;
-        while lambda < 1e10 {
-            let mut a = jtj.clone();
-            for i in 0..np {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-30);
-            }
-            let Some(step) = step_within_range(&a, &jtr, &logs, free) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let largest = step.rows(0, free.len()).amax();
-            let step = &step * (MAX_LOG_STEP / largest.max(MAX_LOG_STEP));
-            if 2.0 * step.dot(&jtr) - step.dot(&(&jtj * &step)) <= worth_trying {
-                break;
-            }
-            if refused.as_ref().is_some_and(|last| (&step - last).norm() <= 0.1 * last.norm()) {
-                lambda *= 10.0;
-                continue;
-            }
-            let trial: Vec<f64> = logs.iter().zip(step.iter()).map(|(l, s)| l + s).collect();
+        let mut next = plan(&mut lambda, None);
+        // The residuals of `next`, where a core that would have idled has simulated them ahead.
+        let mut ahead: Option<Option<DVector<f64>>> = None;
+        while let Some(step) = next {
+            let trial = trial_of(&step);
+            // Should this step be refused, the one after it: planned now and simulated on the
+            // other core if it is free (one that finds this step accepted skips it), so that a
+            // chain of refusals costs one simulation's time per two. Every result is the serial
+            // one: the step after is planned as the serial loop would plan it.
+            let mut lambda_after = lambda * 10.0;
+            let after = plan(&mut lambda_after, Some(&step));
+            let done = AtomicBool::new(false);
+            let (rt, rt_after) = rayon::join(
+                || {
+                    let rt = ahead.take().unwrap_or_else(|| residuals(start, free, &trial, estimation, criterion, il_weight));
+                    done.store(rt.as_ref().is_some_and(|rt| rt.norm_squared() < cost), Ordering::Relaxed);
+                    rt
+                },
+                || after.as_ref().filter(|_| !done.load(Ordering::Relaxed)).map(|a| residuals(start, free, &trial_of(a), estimation, criterion, il_weight)),
+            );
             simulations.set(simulations.get() + 1);
-            match residuals(start, free, &trial, estimation, criterion, il_weight) {
+            match rt {
                 Some(rt) if rt.norm_squared() < cost => {
                     let gain = cost - rt.norm_squared();
                     // Converged when the decrease is far below one unit of the criterion's
@@ -588,13 +619,15 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
                     accepted = Some((step, dr));
                     if free.iter().zip(&logs).any(|(f, u)| f.ceiling().is_some_and(|m| f.from_unknown(*u) >= m * (1.0 - AT_CEILING))) {
                         let j = by_differences(&logs, &r)?;
-                        return Ok(Minimum { logs, r, j, cost, iterations, converged: false, simulations: simulations.get() });
+                        return Ok(Minimum { logs, r, j, cost, iterations, converged: false, simulations: simulations.get(), refusals });
                     }
                     break;
                 }
                 _ => {
-                    refused = Some(step);
-                    lambda *= 10.0;
+                    refusals += 1;
+                    lambda = lambda_after;
+                    next = after;
+                    ahead = rt_after;
                 }
             }
         }
@@ -627,7 +660,7 @@ fn minimize(start: &Params, free: &[Free], mut logs: Vec<f64>, estimation: &Data
         // Out of iterations on an updated Jacobian: the covariance needs the minimum's own.
         j = by_differences(&logs, &r)?;
     }
-    Ok(Minimum { logs, r, j, cost, iterations, converged, simulations: simulations.get() })
+    Ok(Minimum { logs, r, j, cost, iterations, converged, simulations: simulations.get(), refusals })
 }
 
 /// How Cl, fitted with `free` to the first `n_est` samples of `data` at the values `p`, leans
@@ -858,6 +891,29 @@ mod tests {
         assert!(m.converged, "not converged after {} iterations", m.iterations);
         // The residuals, the Jacobian by differences (3 unknowns) and at most one step.
         assert!(m.simulations <= 1 + 3 + 1, "{} simulations at the minimum", m.simulations);
+    }
+
+    /// The trial step simulated ahead on a free core changes nothing: a fit from far off (Cl
+    /// 10× low, the diode drop 3× high: damping refused and raised along the way) ends bit for
+    /// bit where it ends on one thread, after the same simulations.
+    #[test]
+    fn trials_simulated_ahead_leave_the_fit_as_on_one_thread() {
+        let truth = Params { cl: 4.7e-6, diode_drop: 0.45, ..Params::default() };
+        let exp = Experiment { samples: 800, noise_vout: 2e-3, io: 0.5, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let estimation = data.slice(0..600);
+        let free = [Free::Cl, Free::DiodeDrop];
+        let start = Params { cl: 0.47e-6, diode_drop: 1.35, ..Params::default() };
+        let logs: Vec<f64> = free.iter().map(|f| f.to_unknown(f.get(&start))).chain(Start::from(data.vout[0]).unknowns()).collect();
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| minimize(&start, &free, logs.clone(), &estimation, Criterion::OutputError, None).unwrap())
+        };
+        let (one, two) = (on(1), on(2));
+        assert!(one.refusals >= 2, "{} refused steps: none to simulate ahead", one.refusals);
+        assert_eq!((one.iterations, one.simulations, one.refusals, one.converged), (two.iterations, two.simulations, two.refusals, two.converged));
+        assert!(one.logs.iter().zip(&two.logs).all(|(a, b)| a.to_bits() == b.to_bits()), "{:?} vs {:?}", one.logs, two.logs);
+        assert_eq!(one.cost.to_bits(), two.cost.to_bits());
     }
 
     /// The time-averaged output is the plant's own period averages over the record (a biased
