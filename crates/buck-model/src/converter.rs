@@ -840,16 +840,7 @@ impl Converter {
         }
         let d = self.lti(circuit).discretize(tau);
         let step = Transition { h: tau, ad: pad(&d.ad), bd: pad(&d.bd), ia: pad(&d.ia), ib: pad(&d.ib) };
-        let piece = Piece { step, circuit };
-        if self.cache.len() < CACHE_SLOTS {
-            self.cache.push(piece);
-            self.cache.len() - 1
-        } else {
-            let i = self.next_slot;
-            self.cache[i] = piece;
-            self.next_slot = (i + 1) % CACHE_SLOTS;
-            i
-        }
+        store(&mut self.cache, &mut self.next_slot, CACHE_SLOTS, Piece { step, circuit })
     }
 
     /// Index of the cached [`Ladder`] of `circuit`, building it on a miss, grown for a piece of
@@ -860,18 +851,24 @@ impl Converter {
             None => {
                 let lti = self.lti(circuit);
                 let entry = (circuit, Ladder::new(pad(&lti.a), pad(&lti.b), self.params.period()));
-                if self.ladders.len() < LADDER_SLOTS {
-                    self.ladders.push(entry);
-                    self.ladders.len() - 1
-                } else {
-                    let i = self.next_ladder;
-                    self.ladders[i] = entry;
-                    self.next_ladder = (i + 1) % LADDER_SLOTS;
-                    i
-                }
+                store(&mut self.ladders, &mut self.next_ladder, LADDER_SLOTS, entry)
             }
         };
         self.ladders[i].1.grow(length);
+        i
+    }
+}
+
+/// Puts `item` into a cache of `slots` entries, replacing the oldest once it is full (`next`
+/// points at it): the index it went to.
+fn store<T>(cache: &mut Vec<T>, next: &mut usize, slots: usize, item: T) -> usize {
+    if cache.len() < slots {
+        cache.push(item);
+        cache.len() - 1
+    } else {
+        let i = *next;
+        cache[i] = item;
+        *next = (i + 1) % slots;
         i
     }
 }
