@@ -305,3 +305,27 @@ def test_wrong_guid_gives_null_instance_and_a_message(fmu_dir, model_description
     with open_slave(fmu_dir, model_description, "after_wrong_guid") as fmu:
         row = period(fmu, model_description, 0, 0.5)
     assert abs(row[3] - (0.5 * U - RL * 1.0)) < 1e-9  # default start at the DC point: 5.9 V
+
+
+# ---- The switch node's ring in DCM, set through fmi2SetBoolean ------------------------------
+@pytest.mark.parametrize("ring", [True, False], ids=["ring", "held"])
+def test_switch_node_ring_is_set_through_fmi(fmu_dir, model_description, ring):
+    """A diode buck in DCM (0.2 duty, 0.5 A) with a 1 nF switch node: with `switch_node_ring`
+    set by fmpy's `setBoolean`, il rings below zero after the diode blocks, by
+    `(vout + Vf)·√(Csw/L)` (within 3 %, sampled every T/400); held (the default), il stays at
+    zero until the next turn-on."""
+    md, csw, vf = model_description, 1e-9, 0.4
+    start = {"mode": SWITCHED, "diode_drop": vf, "switch_node_capacitance": csw,
+             "switch_node_ring": ring, "duty": 0.2, "io": 0.5}
+    with open_slave(fmu_dir, md, f"ring_{ring}", start) as fmu:
+        drive(fmu, md, np.full(3000, 0.2))
+        vout = fmu.getReal([vr(md, "vout")])[0]
+        il = []
+        for j in range(400):
+            fmu.doStep(3000 * T + j * T / 400, T / 400)
+            il.append(fmu.getReal([vr(md, "il")])[0])
+    depth = (vout + vf) * math.sqrt(csw / L)
+    if ring:
+        assert -min(il) == pytest.approx(depth, rel=0.03), f"lobe depth {-min(il)} A vs {depth} A"
+    else:
+        assert min(il) == 0.0, f"il {min(il)} A below zero without the ring"

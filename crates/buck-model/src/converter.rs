@@ -84,6 +84,17 @@ const SLEW_WINDOW: f64 = 1.0 / 32.0;
 /// State events handled within one piece before the rest of it is taken as it is (a guard
 /// against chattering; no physical configuration comes near it).
 const MAX_EVENTS: usize = 64;
+/// Where the switch node's voltage is kept while it rings (in place of `esl`'s branch current).
+const NODE: usize = 3;
+/// Longest piece of a ringing node, as a fraction of its ring's period `2π·√(L·Csw)`: within
+/// it the node has at most one extremum (see [`first_crossing`]).
+const RING_PIECE: f64 = 1.0 / 8.0;
+/// Pieces of a ring watched for a clamp: its first half-cycle, where the node swings to the
+/// far extreme from the clamp it started at. After that the swings only shrink (the ring is
+/// damped by `RL`), so the node stays between the clamps and the rest goes in one piece; a
+/// ring whose first swing stays clear of both clamps is not watched at all
+/// ([`Converter::ring_may_clamp`]).
+const RING_WATCH: u8 = 4;
 
 /// Which gate of the half bridge is on over an interval fixed by the PWM timing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -115,7 +126,9 @@ enum Topology {
     LowDiode,
     /// High-side body diode with `il < 0`: `u_sw = vin + V_bd`, `RL + Rd`.
     HighDiode,
-    /// Everything off, `il` held at 0; the switch node floats at the output.
+    /// Everything off: `il` held at 0 and the switch node floating at the output, or, with a
+    /// switch-node capacitance ([`Params::rings`]), the node (`x[3]`) ringing with `L` until
+    /// it reaches a diode's clamp.
     Blocked,
 }
 
@@ -164,7 +177,8 @@ pub struct Converter {
     mode: Mode,
     start_at_steady_state: bool,
     inputs: Inputs,
-    /// `[il, vc, vcl, ic]` (`ic` stays 0 without `esl`).
+    /// `[il, vc, vcl, ic]`; without `esl`, `x[3]` is the switch node's voltage where it rings
+    /// ([`Params::rings`]: the rail a switch holds it at, a diode's clamp, the ring), else 0.
     x: Vector4<f64>,
     /// Integral of `x` since the start of the current period.
     z: Vector4<f64>,
@@ -185,8 +199,11 @@ pub struct Converter {
     /// Voltage across Cl at the previous period start, for the mid-period extrapolation of
     /// `cl_now` (`None` right after a state was set).
     vcl_last_start: Option<f64>,
-    /// The inductor current stopped at zero with both switches off (DCM) until the next turn-on.
+    /// The inductor current stopped at zero with both switches off (DCM) until the next turn-on
+    /// (or, ringing with the switch node, until the node reaches a diode's clamp).
     blocked: bool,
+    /// Pieces of the current ring still watched for a clamp ([`RING_WATCH`]; 0 when none).
+    ring_watch: u8,
     /// The rail a switch last held the switch node at (`vin` or 0), until an `Off` interval
     /// starts from it.
     node_rail: Option<f64>,
@@ -239,6 +256,7 @@ impl Converter {
             vcl_last_start: None,
             vout_map: params.vout_map(),
             blocked: false,
+            ring_watch: 0,
             node_rail: None,
             slew: None,
             at_edge: true,
@@ -317,7 +335,7 @@ impl Converter {
 
     /// Circuit state.
     pub fn state(&self) -> State {
-        State { il: self.x[0], vc: self.x[1], vo: self.x[2], ic: self.x[3] }
+        State { il: self.x[0], vc: self.x[1], vo: self.x[2], ic: if self.params.esl > 0.0 { self.x[3] } else { 0.0 } }
     }
 
     /// Puts the circuit at the start of a period in the given state, e.g. from an initial
@@ -331,6 +349,7 @@ impl Converter {
         self.phase = 0.0;
         self.at_period_start = true;
         self.blocked = false;
+        self.ring_watch = 0;
         self.node_rail = None;
         self.slew = None;
         self.at_edge = true;
@@ -427,6 +446,7 @@ impl Converter {
             VarId::SwitchResistance => p.switch_resistance,
             VarId::DiodeDrop => p.diode_drop,
             VarId::Dcm => f64::from(u8::from(p.dcm)),
+            VarId::SwitchNodeRing => f64::from(u8::from(p.switch_node_ring)),
             VarId::DeadTime => p.dead_time,
             VarId::LoadEsr => p.load_esr,
             VarId::Esl => p.esl,
@@ -506,6 +526,10 @@ impl Converter {
                 VarId::SteadyStart => self.start_at_steady_state = value != 0.0,
                 VarId::Dcm => {
                     self.params.dcm = value != 0.0;
+                    self.parameters_changed();
+                }
+                VarId::SwitchNodeRing => {
+                    self.params.switch_node_ring = value != 0.0;
                     self.parameters_changed();
                 }
                 _ => return Err(ModelError::NotSettable { name: var.name, when: "as a Boolean" }),
@@ -665,9 +689,22 @@ impl Converter {
                 // output lies within [−Vf, vin + V_bd] (re-conduction from a blocked inductor is
                 // not modelled).
                 self.blocked = true;
+                self.ring_watch = self.ring_may_clamp(self.x[NODE]);
                 Topology::Blocked
             }
         }
+    }
+
+    /// The pieces a ring that starts at the node voltage `from` is watched for a clamp: its
+    /// first half-cycle ([`RING_WATCH`]) if its swing to the far side of the output node (to
+    /// `2·vout − from`, less what damping takes) comes within a twentieth of the swing of a
+    /// diode's clamp, else none (it cannot reach one: the swings only shrink).
+    fn ring_may_clamp(&self, from: f64) -> u8 {
+        let vn = self.vout();
+        let far = 2.0 * vn - from;
+        let margin = 0.05 * (vn - from).abs();
+        let (low, high) = (-self.params.low_diode_drop(), self.inputs.vin + self.params.body_diode_drop());
+        if far <= low + margin || far >= high - margin { RING_WATCH } else { 0 }
     }
 
     /// Saturation region of the current state: by value, or as recorded at `|il| = isat`.
@@ -704,19 +741,25 @@ impl Converter {
         (Circuit { r: r.to_bits(), l: l.to_bits(), cl: self.cl_now.to_bits(), blocked }, u_sw)
     }
 
-    /// Levels of `il` whose crossing ends the piece, each with the side (+1 above, −1 below)
-    /// the current lies on now.
-    fn thresholds(&self, topology: Topology) -> ([(f64, f64); 3], usize) {
-        let mut out = [(0.0, 0.0); 3];
+    /// Levels of a state (`il`, or a ringing node's voltage) whose crossing ends the piece:
+    /// `(state, level, side)`, the side (+1 above, −1 below) the state lies on now.
+    fn thresholds(&self, topology: Topology) -> ([(usize, f64, f64); 3], usize) {
+        let mut out = [(0, 0.0, 0.0); 3];
         let mut n = 0;
         match topology {
+            // A ringing node ends at a diode's clamp: the low side's below, the high side's above.
+            Topology::Blocked if self.params.rings() && self.ring_watch > 0 => {
+                out[0] = (NODE, -self.params.low_diode_drop(), 1.0);
+                out[1] = (NODE, self.inputs.vin + self.params.body_diode_drop(), -1.0);
+                return (out, 2);
+            }
             Topology::Blocked => return (out, 0),
             Topology::LowDiode => {
-                out[0] = (0.0, 1.0);
+                out[0] = (0, 0.0, 1.0);
                 n = 1;
             }
             Topology::HighDiode => {
-                out[0] = (0.0, -1.0);
+                out[0] = (0, 0.0, -1.0);
                 n = 1;
             }
             _ => {}
@@ -724,12 +767,12 @@ impl Converter {
         if self.params.inductor_saturation > 0.0 {
             let isat = self.params.isat;
             match self.region() {
-                1 => out[n] = (isat, 1.0),
-                -1 => out[n] = (-isat, -1.0),
+                1 => out[n] = (0, isat, 1.0),
+                -1 => out[n] = (0, -isat, -1.0),
                 _ => {
-                    out[n] = (isat, -1.0);
+                    out[n] = (0, isat, -1.0);
                     n += 1;
-                    out[n] = (-isat, 1.0);
+                    out[n] = (0, -isat, 1.0);
                 }
             }
             n += 1;
@@ -745,36 +788,55 @@ impl Converter {
         let io = self.inputs.io;
         self.io_held = io;
         self.io_integral += io * tau;
-        match gate {
-            Gate::High => self.node_rail = Some(self.inputs.vin),
-            Gate::Low => self.node_rail = Some(0.0),
-            _ => {}
+        let rail = match gate {
+            Gate::High => Some(self.inputs.vin),
+            Gate::Low => Some(0.0),
+            _ => None,
+        };
+        if let Some(v) = rail {
+            self.node_rail = rail;
+            if self.params.rings() {
+                self.x[NODE] = v;
+            }
         }
         if !matches!(gate, Gate::Off | Gate::Slew) {
             self.blocked = false;
         }
         let mut left = tau;
-        for event in 0..=MAX_EVENTS {
+        let mut events = 0;
+        let mut first = true;
+        loop {
             let topology = self.topology(gate);
             let (circuit, mut u_sw) = self.configure(topology);
             if let (Gate::Slew, Some((_, mean)), Topology::LowDiode | Topology::HighDiode) = (gate, self.slew, topology) {
                 u_sw = mean;
             }
             let u = Vector2::new(u_sw, io);
-            // A whole gate interval goes by its own transition; the rest after a state event is
-            // reached on the ladder.
-            let end = if event == 0 {
+            // A ringing node goes in short pieces while it is watched (see `first_crossing`).
+            let ringing = topology == Topology::Blocked && self.params.rings();
+            let watched = ringing && self.ring_watch > 0;
+            let span = if watched { left.min(RING_PIECE * std::f64::consts::TAU * (self.params.l * self.params.switch_node_capacitance).sqrt()) } else { left };
+            // A whole gate interval goes by its own transition; the rest after a state event, and
+            // a ringing node, are reached on the ladder.
+            let end = if first && !ringing {
                 self.whole(circuit, left, &u)
             } else {
-                let i = self.ladder(circuit, left);
-                self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, left)
+                let i = self.ladder(circuit, span);
+                self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, span)
             };
+            first = false;
             let (levels, n) = self.thresholds(topology);
-            let crossed = if n == 0 || event == MAX_EVENTS { None } else { self.cross(circuit, &end, &u, left, &levels[..n]) };
+            let crossed = if n == 0 || events == MAX_EVENTS { None } else { self.cross(circuit, &end, &u, span, &levels[..n]) };
             let Some(t) = crossed else {
                 self.commit(&end);
-                return;
+                left -= span;
+                if left <= 0.0 {
+                    return;
+                }
+                self.ring_watch -= 1;
+                continue;
             };
+            events += 1;
             left -= t;
             if left <= 0.0 {
                 return;
@@ -785,19 +847,29 @@ impl Converter {
     /// Moves to the first state event at one of `levels` on the way from the current point to
     /// `end`, `tau` later in the same piece (inputs `u`), and crosses it: the time that took, or
     /// `None` (and nothing moved) if there is none.
-    fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)]) -> Option<f64> {
+    fn cross(&mut self, circuit: Circuit, end: &Point, u: &Vector2<f64>, tau: f64, levels: &[(usize, f64, f64)]) -> Option<f64> {
         let start = Point { t: 0.0, x: self.x, z: self.z };
         let tol = ROOT_TOL * self.params.period();
         let i = self.ladder(circuit, tau);
         let ladder = &self.ladders[i].1;
-        let (mut at, level) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
-        at.x[0] = level;
+        let (mut at, state, level) = first_crossing(ladder, (&start, end), u, tau, levels, tol)?;
+        at.x[state] = level;
         // Above isat when |il| keeps growing (the sign of dil/dt is the same for both
         // inductances, so this does not depend on the region just left).
         let dil = ladder.dil(&at.x, u);
         self.commit(&at);
-        if level == 0.0 {
+        if state == NODE {
+            // The ringing node reached a clamp: that diode conducts (il has the sign that drove
+            // the node there), the node held at the clamp.
+            self.blocked = false;
+            self.ring_watch = 0;
+        } else if level == 0.0 {
             self.blocked = true;
+            if self.params.rings() {
+                // The diode that conducted held the node at its clamp: the ring starts there.
+                self.x[NODE] = u[0];
+                self.ring_watch = self.ring_may_clamp(u[0]);
+            }
         } else {
             self.sat_region = if dil * level > 0.0 { level.signum() as i8 } else { 0 };
         }
@@ -873,23 +945,24 @@ fn store<T>(cache: &mut Vec<T>, next: &mut usize, slots: usize, item: T) -> usiz
     }
 }
 
-/// The earliest instant in `(0, tau]` at which `il` reaches one of `levels` (each given with
-/// the side `s` it starts on, so that `s·(il − level) ≥ 0` at `start`): the point there and
-/// the level.
+/// The earliest instant in `(0, tau]` at which a state `x` (`il`, or a ringing node's voltage)
+/// reaches one of `levels` (each `(state, level, s)` with the side `s` it starts on, so that
+/// `s·(x − level) ≥ 0` at `start`): the point there, the state and the level.
 ///
-/// A crossing is bracketed by the sign of `s·(il − level)` at the piece end `end`, or, when the
-/// current first moves towards the level and then away (an extremum inside the piece), by the
-/// value at the extremum, located on `dil/dt`. Within one piece `il` is a smooth sum of
-/// exponentials far slower than the period (at most one extremum), which is what this relies
-/// on: inside the bracket there is one crossing, located on `il`. Both are located to `tol`.
-fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f64>, tau: f64, levels: &[(f64, f64)], tol: f64) -> Option<(Point, f64)> {
-    let mut best: Option<(Point, f64)> = None;
-    for &(level, side) in levels {
-        let crossing = Watch { order: 0, level, sign: side };
+/// A crossing is bracketed by the sign of `s·(x − level)` at the piece end `end`, or, when the
+/// state first moves towards the level and then away (an extremum inside the piece), by the
+/// value at the extremum, located on `dx/dt`. Within one piece `il` is a smooth sum of
+/// exponentials far slower than the period, and a ringing node is taken in pieces of an eighth
+/// of its ring ([`Converter::advance`]): at most one extremum, which is what this relies on:
+/// inside the bracket there is one crossing, located on `x`. Both are located to `tol`.
+fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f64>, tau: f64, levels: &[(usize, f64, f64)], tol: f64) -> Option<(Point, usize, f64)> {
+    let mut best: Option<(Point, usize, f64)> = None;
+    for &(state, level, side) in levels {
+        let crossing = Watch { state, order: 0, level, sign: side };
         let hi = if ladder.value(crossing, &end.x, u) <= 0.0 {
             tau
         } else {
-            let towards = Watch { order: 1, level: 0.0, sign: -side };
+            let towards = Watch { state, order: 1, level: 0.0, sign: -side };
             if !(ladder.value(towards, &start.x, u) > 0.0 && ladder.value(towards, &end.x, u) < 0.0) {
                 continue;
             }
@@ -900,8 +973,8 @@ fn first_crossing(ladder: &Ladder, (start, end): (&Point, &Point), u: &Vector2<f
             turn.t
         };
         let at = ladder.descend(start, u, hi, crossing, tol);
-        if best.is_none_or(|(b, _)| at.t < b.t) {
-            best = Some((at, level));
+        if best.is_none_or(|(b, _, _)| at.t < b.t) {
+            best = Some((at, state, level));
         }
     }
     best

@@ -147,10 +147,12 @@ const TAIL_TERMS: usize = 11;
 /// Relative size of the first Taylor term a [`Tail`] leaves out.
 const TAIL_EPS: f64 = 1.0 / (1u64 << 60) as f64;
 
-/// A scalar along a piece, `sign·(dⁿil/dtⁿ − level)` for `order` `n` = 0 (the current) or 1
+/// A scalar along a piece, `sign·(dⁿxᵢ/dtⁿ − level)` of the state `xᵢ` (`state` `i`: 0 the
+/// inductor current, 3 a ringing switch node's voltage) for `order` `n` = 0 (its value) or 1
 /// (its slope), that a [`Ladder::descend`] follows until it stops being positive.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Watch {
+    pub state: usize,
     pub order: usize,
     pub level: f64,
     pub sign: f64,
@@ -207,14 +209,19 @@ impl Ladder {
         }
     }
 
+    /// `dxᵢ/dt` of the state `i` at the state `x` under the inputs `u`.
+    pub fn slope(&self, i: usize, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
+        (self.a.row(i) * x)[0] + (self.b.row(i) * u)[0]
+    }
+
     /// `dil/dt` at the state `x` under the inputs `u`.
     pub fn dil(&self, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-        (self.a.row(0) * x)[0] + (self.b.row(0) * u)[0]
+        self.slope(0, x, u)
     }
 
     /// The value of `watch` at the state `x`.
     pub fn value(&self, watch: Watch, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-        let v = if watch.order == 0 { x[0] } else { self.dil(x, u) };
+        let v = if watch.order == 0 { x[watch.state] } else { self.slope(watch.state, x, u) };
         watch.sign * (v - watch.level)
     }
 
@@ -310,8 +317,8 @@ impl Tail {
 
     /// `watch` as a polynomial in `s`: coefficients of the value and of its derivative.
     fn polynomial(&self, watch: Watch) -> Polynomial {
-        let j = watch.order;
-        // dʲ⁺ⁱil/dtʲ⁺ⁱ = Σ dₖ₊ⱼ₊ᵢ[0]·sᵏ/k! over the d there are.
+        let (j, i) = (watch.order, watch.state);
+        // dʲ⁺ᵐxᵢ/dtʲ⁺ᵐ = Σ dₖ₊ⱼ₊ₘ[i]·sᵏ/k! over the d there are.
         let mut value = [0.0; TAIL_TERMS + 2];
         let mut slope = [0.0; TAIL_TERMS + 2];
         let mut factorial = 1.0;
@@ -319,9 +326,9 @@ impl Tail {
             if k > 0 {
                 factorial *= RECIP[k];
             }
-            value[k] = watch.sign * self.d[k + j][0] * factorial;
+            value[k] = watch.sign * self.d[k + j][i] * factorial;
             if k + j < self.terms + 1 {
-                slope[k] = watch.sign * self.d[k + j + 1][0] * factorial;
+                slope[k] = watch.sign * self.d[k + j + 1][i] * factorial;
             }
         }
         value[0] -= watch.sign * watch.level;
@@ -522,12 +529,12 @@ mod tests {
         let tol = 1e-15 * period;
         let dil0 = ladder.dil(&x0, &u);
         assert!(dil0 < 0.0);
-        let turn = ladder.descend(&start, &u, period, Watch { order: 1, level: 0.0, sign: -1.0 }, tol);
+        let turn = ladder.descend(&start, &u, period, Watch { state: 0, order: 1, level: 0.0, sign: -1.0 }, tol);
         assert!(turn.t > 0.0 && turn.t < period, "valley at {:e}", turn.t);
         let (valley, slope) = exact(turn.t);
         assert!(slope.abs() <= 1e-9 * dil0.abs(), "dil/dt {slope:e} at the valley");
         let level = 0.5 * (1.0 + valley);
-        let at = ladder.descend(&start, &u, turn.t, Watch { order: 0, level, sign: 1.0 }, tol);
+        let at = ladder.descend(&start, &u, turn.t, Watch { state: 0, order: 0, level, sign: 1.0 }, tol);
         assert!((exact(at.t).0 - level).abs() <= 1e-12, "il {} vs level {level}", exact(at.t).0);
         assert!((at.x[0] - level).abs() <= 1e-12, "il {} vs level {level}", at.x[0]);
     }

@@ -2,6 +2,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ModelError;
 use crate::lti::Lti;
+use nalgebra::DMatrix;
 
 /// Circuit parameters of the buck power stage (SI units). Defaults are the BMR450 thesis values
 /// with every non-ideal effect off.
@@ -53,6 +54,12 @@ pub struct Params {
     /// the node at its ramp's mean voltage (the slew lasts nanoseconds: il moves by milliamperes).
     /// 0 (the default): the node switches at once.
     pub switch_node_capacitance: f64,
+    /// `switch_node_ring`: once the diode blocks (DCM), the inductor rings with the switch
+    /// node's capacitance instead of holding at zero current: the node swings about the output
+    /// at `1/(2π·√(L·Csw))` until the next turn-on or a diode's clamp, and the next on-time
+    /// starts from the current the ring has then (in deep DCM that sets each period's charge).
+    /// Off (the default), as the estimator's fits assume: a blocked inductor holds `il = 0`.
+    pub switch_node_ring: bool,
     /// `load_esr`: series resistance of `Cl` [Ω]; `vout` is then the node voltage.
     pub load_esr: f64,
     /// `esl`: series inductance of the main capacitor branch `C`, `Rc` [H].
@@ -161,6 +168,7 @@ impl Default for Params {
             dcm: false,
             dead_time: 0.0,
             switch_node_capacitance: 0.0,
+            switch_node_ring: false,
             load_esr: 0.0,
             esl: 0.0,
             inductor_saturation: 0.0,
@@ -281,7 +289,9 @@ impl Params {
     /// The linear circuit of one piece: states `[il, vc, vcl]` (plus the current `ic` of the
     /// `C` branch when `esl > 0`), inputs `[u_sw, io]`, with the series resistance `r` and the
     /// incremental inductance `l` of the inductor path and the load capacitance `cl` in force.
-    /// `blocked` clamps `il` at zero (both switches and the diode off).
+    /// `blocked`: both switches and the diode off. The inductor then rings with the switch
+    /// node's capacitance where there is one ([`Params::rings`]): the node's voltage `vsw` is a
+    /// fourth state, `L dil/dt = vsw − r·il − vn`, `Csw dvsw/dt = −il`; else `il` stays at zero.
     ///
     /// Without `esl`, the node voltage is `vn = vcl + load_esr·icl` with the current into `Cl`
     /// `icl = k·(il − io + (vc − vcl)/Rc)`, `k = Rc/(Rc + load_esr)`:
@@ -348,11 +358,21 @@ impl Params {
                 ],
             )
         };
+        if blocked && self.rings() {
+            return ringing(&lti, l, self.switch_node_capacitance);
+        }
         if blocked {
             lti.a.row_mut(0).fill(0.0);
             lti.b.row_mut(0).fill(0.0);
         }
         lti
+    }
+
+    /// Whether a blocked inductor rings with the switch node's capacitance (`switch_node_ring`
+    /// with a capacitance, see [`Params::piece_lti`]). The node's voltage takes the place of the
+    /// `C` branch's current, so not with `esl`: there the blocked current stays at zero.
+    pub fn rings(&self) -> bool {
+        self.switch_node_ring && self.switch_node_capacitance > 0.0 && self.esl == 0.0
     }
 
     /// [`Params::piece_lti`] with a load resistor, from the node map `vn = cv·x + dv·io`.
@@ -511,6 +531,20 @@ impl Params {
         let (r0, slope) = (self.rl + self.switch_resistance * self.low_side_ratio, self.switch_resistance * (1.0 - self.low_side_ratio));
         (vo + r0 * il) / (vin - slope * il)
     }
+}
+
+/// The three-state circuit `lti` of an inductor path with resistance in its `il` row and
+/// inductance `l`, with the switch node as a fourth state `vsw` in place of the input `u_sw`:
+/// the node's capacitance `csw` ringing with the blocked inductor.
+fn ringing(lti: &Lti, l: f64, csw: f64) -> Lti {
+    let mut a = DMatrix::zeros(4, 4);
+    a.view_mut((0, 0), (3, 3)).copy_from(&lti.a);
+    a[(0, 3)] = 1.0 / l;
+    a[(3, 0)] = -1.0 / csw;
+    let mut b = DMatrix::zeros(4, 2);
+    b.view_mut((0, 0), (3, 2)).copy_from(&lti.b);
+    b[(0, 0)] = 0.0;
+    Lti { a, b }
 }
 
 #[cfg(test)]

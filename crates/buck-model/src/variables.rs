@@ -57,6 +57,7 @@ pub enum VarId {
     DiodeResistance,
     SwitchNodeCapacitance,
     LowSideRatio,
+    SwitchNodeRing,
 }
 
 /// FMI causality.
@@ -203,6 +204,14 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::DiodeResistance, "diode_resistance", Parameter, "Ohm", (0.0, 10.0), Some(0.0), "Slope resistance of the freewheeling and body diodes: a conducting diode drops its forward voltage plus diode_resistance |il| (switched mode only)"),
     real(VarId::SwitchNodeCapacitance, "switch_node_capacitance", Parameter, "F", (0.0, 1e-6), Some(0.0), "Capacitance of the switch node, charged by il while both switches are off (dead time, the diode buck's turn-off): the node slews between the rails (switched mode only)"),
     real(VarId::LowSideRatio, "low_side_ratio", Parameter, "1", (0.01, 100.0), Some(1.0), "On-resistance of the low-side switch over the high side's switch_resistance; 1 = equal switches (synchronous buck, both modes)"),
+    Variable {
+        id: VarId::SwitchNodeRing,
+        name: "switch_node_ring",
+        causality: Parameter,
+        variability: Variability::Fixed,
+        ty: Type::Boolean { start: false },
+        description: "Once the diode blocks (DCM), il rings with switch_node_capacitance (the node swings about vout until the next turn-on or a diode clamp) instead of holding at 0 (switched mode only; not with esl)",
+    },
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
