@@ -90,10 +90,10 @@ const NODE: usize = 3;
 /// it the node has at most one extremum (see [`first_crossing`]).
 const RING_PIECE: f64 = 1.0 / 8.0;
 /// Pieces of a ring watched for a clamp: its first half-cycle, where the node swings to the
-/// far extreme from the clamp it started at. After that the swings only shrink (the ring is
-/// damped by `RL`), so the node stays between the clamps and the rest goes in one piece; a
-/// ring whose first swing stays clear of both clamps is not watched at all
-/// ([`Converter::ring_may_clamp`]).
+/// far extreme from the clamp it started at. After that the swings only shrink (`RL` damps the
+/// ring; the output barely moves over one), so the node stays between the clamps and the rest
+/// goes in one piece; a ring whose first swing stays clear of both clamps is not watched at
+/// all ([`Converter::ring_may_clamp`]).
 const RING_WATCH: u8 = 4;
 
 /// Which gate of the half bridge is on over an interval fixed by the PWM timing.
@@ -126,9 +126,9 @@ enum Topology {
     LowDiode,
     /// High-side body diode with `il < 0`: `u_sw = vin + V_bd`, `RL + Rd`.
     HighDiode,
-    /// Everything off: `il` held at 0 and the switch node floating at the output, or, with a
-    /// switch-node capacitance ([`Params::rings`]), the node (`x[3]`) ringing with `L` until
-    /// it reaches a diode's clamp.
+    /// Everything off: `il` held at 0 and the switch node floating at the output, or, where it
+    /// rings ([`Params::rings`]), the node (`x[3]`) ringing with `L` until it reaches a diode's
+    /// clamp.
     Blocked,
 }
 
@@ -689,7 +689,7 @@ impl Converter {
                 // output lies within [−Vf, vin + V_bd] (re-conduction from a blocked inductor is
                 // not modelled).
                 self.blocked = true;
-                self.ring_watch = self.ring_may_clamp(self.x[NODE]);
+                self.ring_watch = if self.params.rings() { self.ring_may_clamp(self.x[NODE]) } else { 0 };
                 Topology::Blocked
             }
         }
