@@ -872,7 +872,7 @@ fn trace_il(conv: &mut Converter) -> Vec<f64> {
 }
 
 /// Once the diode blocks, the inductor rings with the switch node's capacitance: from the
-/// diode's clamp `−Vf` with `il = 0`, the node swings about the output (`vout` held by 200 µF,
+/// diode's clamp `−Vf` with `il = 0`, the node swings about the output (`vout` held by 110 µF,
 /// moving by a few mV over the ring), so `il = −(vout + Vf)/Z₀·sin(ω·t)` with
 /// `ω = 1/√(L·Csw)`, `Z₀ = √(L/Csw)`: a negative lobe of `π/ω` (180 ns for 3.3 µH and 1 nF) and
 /// depth `(vout + Vf)/Z₀`, both within 2 % (RL damps it by 0.5 % over the lobe). Without the

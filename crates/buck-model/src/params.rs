@@ -9,8 +9,9 @@ use nalgebra::DMatrix;
 ///
 /// The effect fields carry the names of the design's effects table (a contract with the CLI and
 /// JSON). `switch_resistance`, `load_esr`, `esl`, `inductor_saturation` and `cap_dc_bias` apply
-/// in both modes; `diode_drop`, `diode_resistance`, `dcm` and `dead_time` describe the switching of the half bridge
-/// and apply in [`Mode::Switched`] only (the averaged model ignores them).
+/// in both modes; `diode_drop`, `diode_resistance`, `dcm`, `dead_time`, `switch_node_capacitance`
+/// and `switch_node_ring` describe the switching of the half bridge and apply in
+/// [`Mode::Switched`] only (the averaged model ignores them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Params {
