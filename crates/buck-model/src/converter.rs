@@ -638,7 +638,7 @@ impl Converter {
         if p.switch_node_capacitance == 0.0 || i0 == 0.0 || self.blocked {
             return None;
         }
-        let target = if i0 > 0.0 { -p.low_diode_drop() } else { self.inputs.vin + p.body_diode_drop() };
+        let target = if i0 > 0.0 { self.low_clamp() } else { self.high_clamp() };
         let transit = p.switch_node_capacitance * (target - v0).abs() / i0.abs();
         let window = if p.asynchronous() { (SLEW_WINDOW * period).min(end - self.phase) } else { end - self.phase };
         // The ramp's volt-seconds within the window, then the clamp's.
@@ -703,8 +703,7 @@ impl Converter {
         let vn = self.vout();
         let far = 2.0 * vn - from;
         let margin = 0.05 * (vn - from).abs();
-        let (low, high) = (-self.params.low_diode_drop(), self.inputs.vin + self.params.body_diode_drop());
-        if far <= low + margin || far >= high - margin { RING_WATCH } else { 0 }
+        if far <= self.low_clamp() + margin || far >= self.high_clamp() - margin { RING_WATCH } else { 0 }
     }
 
     /// Saturation region of the current state: by value, or as recorded at `|il| = isat`.
@@ -723,6 +722,17 @@ impl Converter {
         }
     }
 
+    /// The switch node's voltage while the low side's diode conducts (`il > 0`): `−Vf`.
+    fn low_clamp(&self) -> f64 {
+        -self.params.low_diode_drop()
+    }
+
+    /// The switch node's voltage while the high side's body diode conducts (`il < 0`):
+    /// `vin + V_bd`.
+    fn high_clamp(&self) -> f64 {
+        self.inputs.vin + self.params.body_diode_drop()
+    }
+
     /// The circuit and switch-node voltage of `topology`.
     fn configure(&self, topology: Topology) -> (Circuit, f64) {
         let p = &self.params;
@@ -732,8 +742,8 @@ impl Converter {
             Topology::High => (p.switching_resistance(1.0), vin),
             Topology::Low => (p.switching_resistance(0.0), 0.0),
             Topology::Averaged => (p.switching_resistance(self.latched_duty), self.latched_duty * vin),
-            Topology::LowDiode => (r_diode, -p.low_diode_drop()),
-            Topology::HighDiode => (r_diode, vin + p.body_diode_drop()),
+            Topology::LowDiode => (r_diode, self.low_clamp()),
+            Topology::HighDiode => (r_diode, self.high_clamp()),
             Topology::Blocked => (p.rl, 0.0),
         };
         let blocked = topology == Topology::Blocked;
@@ -749,8 +759,8 @@ impl Converter {
         match topology {
             // A ringing node ends at a diode's clamp: the low side's below, the high side's above.
             Topology::Blocked if self.params.rings() && self.ring_watch > 0 => {
-                out[0] = (NODE, -self.params.low_diode_drop(), 1.0);
-                out[1] = (NODE, self.inputs.vin + self.params.body_diode_drop(), -1.0);
+                out[0] = (NODE, self.low_clamp(), 1.0);
+                out[1] = (NODE, self.high_clamp(), -1.0);
                 return (out, 2);
             }
             Topology::Blocked => return (out, 0),
@@ -833,6 +843,7 @@ impl Converter {
                 if left <= 0.0 {
                     return;
                 }
+                // Only a watched ring's piece is shorter than what is left of the interval.
                 self.ring_watch -= 1;
                 continue;
             };
