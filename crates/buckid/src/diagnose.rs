@@ -137,7 +137,12 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         println!("not tested  {:19} {}", n.name, n.reason);
     }
     for (i, e) in dx.selected.iter().enumerate() {
-        let closed = e.closed_percent.map_or_else(|| "no gap above the floor".to_string(), |c| format!("{c:.1} % of the gap over the floor closed"));
+        // Without a model-free floor there is no gap to measure a share of: the NRMSE's shrink.
+        let closed = match (e.closed_percent, dx.location.noise_floor_from) {
+            (Some(c), _) => format!("{c:.1} % of the gap over the floor closed"),
+            (None, gap::FloorSource::ModelResidual) => format!("held-out NRMSE {:+.1} % (no model-free floor to measure a gap against)", -e.shrink_percent),
+            (None, gap::FloorSource::Differences) => "no gap above the floor".to_string(),
+        };
         println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.label(), closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
     }
     println!("selection   {}", dx.selection_ended);

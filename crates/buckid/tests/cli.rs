@@ -672,3 +672,27 @@ fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
         assert!(lo <= law_cl && law_cl <= hi, "[{lo:e}, {hi:e}] leaves out a law's Cl {law_cl:e}");
     }
 }
+
+/// A capture too short for a model-free noise floor (200 periods: the PRBS steps too often for
+/// the differences between steps): the floor is the best model's residual, so no share of a gap
+/// above it exists, and the selection says so with the NRMSE's shrink instead of "no gap above
+/// the floor" (which it had printed beside an 85 % shrink).
+#[test]
+fn a_capture_without_a_model_free_floor_reports_the_shrink() {
+    let (data, _) = third_fixture("pol-single-2301");
+    let text = std::fs::read_to_string(data).unwrap();
+    let meta = text.lines().filter(|l| l.starts_with('#'));
+    let rows = text.lines().filter(|l| !l.starts_with('#')).take(201);
+    let dir = tempfile::tempdir().unwrap();
+    let (short, out) = (dir.path().join("short.csv"), dir.path().join("dx.json"));
+    std::fs::write(&short, meta.chain(rows).collect::<Vec<_>>().join("\n") + "\n").unwrap();
+    let o = buckid(&["diagnose", "--data", short.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&out)["where"]["noise_floor_from"], "model_residual");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let selected: Vec<&str> = stdout.lines().filter(|l| l.starts_with("selected")).collect();
+    assert!(!selected.is_empty(), "{stdout}");
+    for line in selected {
+        assert!(line.contains("no model-free floor") && !line.contains("no gap above the floor"), "{line}");
+    }
+}
