@@ -676,7 +676,7 @@ fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
 /// A capture too short for a model-free noise floor (200 periods: the PRBS steps too often for
 /// the differences between steps): the floor is the best model's residual, so no share of a gap
 /// above it exists, and the selection says so with the NRMSE's shrink instead of "no gap above
-/// the floor" (which it had printed beside an 85 % shrink).
+/// the floor" (which it had printed beside an 85 % shrink); the report, why it has no waterfall.
 #[test]
 fn a_capture_without_a_model_free_floor_reports_the_shrink() {
     let (data, _) = third_fixture("pol-single-2301");
@@ -686,9 +686,12 @@ fn a_capture_without_a_model_free_floor_reports_the_shrink() {
     let dir = tempfile::tempdir().unwrap();
     let (short, out) = (dir.path().join("short.csv"), dir.path().join("dx.json"));
     std::fs::write(&short, meta.chain(rows).collect::<Vec<_>>().join("\n") + "\n").unwrap();
-    let o = buckid(&["diagnose", "--data", short.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    let report = dir.path().join("report");
+    let o = buckid(&["diagnose", "--data", short.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(json(&out)["where"]["noise_floor_from"], "model_residual");
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(html.contains("the noise floor is a model's residual") && !html.contains("gap is within the noise floor"), "the report's waterfall note");
     let stdout = String::from_utf8_lossy(&o.stdout);
     let selected: Vec<&str> = stdout.lines().filter(|l| l.starts_with("selected")).collect();
     assert!(!selected.is_empty(), "{stdout}");

@@ -197,6 +197,9 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
     } else {
         match &steps {
             Some(steps) => page.figure("waterfall", waterfall(dx.gap_before.rms, steps).render()?),
+            None if dx.location.noise_floor_from == gap::FloorSource::ModelResidual => {
+                page.html("<p>No waterfall: the noise floor is a model's residual (the inputs step too often for a model-free one), so there is no gap to take shares of.</p>")
+            }
             None => page.html("<p>No waterfall: the nominal's gap is within the noise floor, so there is no share to close.</p>"),
         }
         let rows: Vec<Vec<String>> = dx
