@@ -419,7 +419,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     let weight = pinned.filter(|_| criterion == Criterion::OutputError).map(|(_, w)| w);
     let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
     if tries.len() > 1 {
-        let mut ranked: Vec<(f64, Vec<f64>)> = tries.into_iter().map(|u| (cost_at(&u), u)).collect();
+        let mut ranked: Vec<(f64, Vec<f64>)> = tries.into_par_iter().map(|u| (cost_at(&u), u)).collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
         tries = ranked.into_iter().map(|(_, u)| u).collect();
     }

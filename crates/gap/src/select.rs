@@ -444,15 +444,18 @@ impl Linearization {
         let est = stack.data(data).slice(0..n_est);
         let y0 = Self::run(&stack.params, &est, start)?;
         let r = DVector::from_vec(est.vout[BURN_IN..].to_vec()) - &y0;
-        let mut columns = Vec::new();
         // A late reading that il pins is held while the rest is fitted to vout (see
         // `estimator::simulated`): no direction of vout's own.
         let pinned = |f: &Free| *f == Free::SampleDelay && stack.free.len() > 1 && est.il.is_some();
-        for f in stack.free.iter().filter(|f| !pinned(f)) {
-            let mut p = stack.params;
-            f.set(&mut p, f.from_unknown(f.to_unknown(f.get(&stack.params)) + 1e-3));
-            columns.push((Self::run(&p, &est, start)? - &y0) / 1e-3);
-        }
+        let directions: Vec<Free> = stack.free.iter().copied().filter(|f| !pinned(f)).collect();
+        let columns: Vec<DVector<f64>> = directions
+            .par_iter()
+            .map(|f| {
+                let mut p = stack.params;
+                f.set(&mut p, f.from_unknown(f.to_unknown(f.get(&stack.params)) + 1e-3));
+                Some((Self::run(&p, &est, start)? - &y0) / 1e-3)
+            })
+            .collect::<Option<_>>()?;
         let a = DMatrix::from_columns(&columns);
         let inv = (a.transpose() * &a).try_inverse()?;
         let mut lin = Self { est, start, y0, a, inv, r_perp: DVector::zeros(0) };
