@@ -38,6 +38,11 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
+
+/// Share of its periods a diode buck starts in DCM above which the regime sentence warns of the
+/// switch node's ring, which the fits leave out (README, sixteenth session: a ringing node's
+/// criterion has a valley per phase, narrower than ±2 % in its capacitance).
+const DEEP_DCM: f64 = 0.5;
 pub use tested::{CL_FIDELITY, TestedCl, tested_cl};
 
 /// Why a diagnosis could not be made.
@@ -208,10 +213,14 @@ impl Diagnosis {
     }
 
     /// A sentence on how the final model runs where it is a diode buck: the share of periods
-    /// it starts in DCM ([`Diagnosis::dcm_share`]).
+    /// it starts in DCM ([`Diagnosis::dcm_share`]), and, in deep DCM, what it leaves out.
     pub fn regime(&self) -> Option<String> {
         self.dcm_share.map(|share| match share {
             0.0 => "the final model, a diode buck, conducts continuously (CCM) in every period".to_string(),
+            s if s >= DEEP_DCM => format!(
+                "the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero); in deep DCM a real switch node rings with L once the diode blocks, and the ring's current at the next turn-on moves each period's charge: not in the fits (its phase cannot be fitted), so Cl, L and the drop may take its place",
+                100.0 * s
+            ),
             s => format!("the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero)", 100.0 * s),
         })
     }

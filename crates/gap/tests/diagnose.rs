@@ -401,6 +401,8 @@ fn large_diode_drop_in_deep_dcm_is_found() {
     assert!((fit.params["diode_drop"] - 0.77).abs() < 0.01, "{:?}", fit.params);
     // Half the ripple at 0.4 is about 1.4 A: at 1.24 A the diode blocks in most periods.
     assert!(dx.dcm_share.is_some_and(|s| s > 0.5), "{:?}", dx.regime());
+    // Deep DCM: the regime names what the fits leave out there, the switch node's ring.
+    assert!(dx.regime().is_some_and(|r| r.contains("switch node rings")), "{:?}", dx.regime());
 }
 
 /// On clean data each effect that is linear at zero gets the size above which it would have
