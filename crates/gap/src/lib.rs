@@ -39,6 +39,10 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
 
+/// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
+/// be taken instead (the joint model has fewer effects, each judged given all the others).
+const GOING_ON_MARGIN: f64 = 1.05;
+
 /// Share of its periods a diode buck starts in DCM above which the regime sentence warns of the
 /// switch node's ring, which the fits leave out (README, sixteenth session: a ringing node's
 /// criterion has a valley per phase, narrower than ±2 % in its capacitance).
@@ -291,14 +295,28 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let late_in_il = effects.iter().find(|e| e.late_in_il());
     let ripple = effects.iter().find(|e| e.name == "switching_ripple" && e.finding);
     let first = late_in_il.or(ripple).or_else(|| select::best_material(effects.iter(), |e| e));
-    // Forward selection from a first step, then the backward step and the joint refit.
+    // Forward selection from a first step, then the backward step and the joint refit; a full
+    // sequence that the joint refit does not settle also goes on, one effect at a time (the
+    // joint refit frees no ESL, load ESR or bias law).
     let path = |first: &EffectFit| {
-        let (mut selected, mut ended) = select::forward(data, nominal, first, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+        let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+        let (mut selected, mut ended) = forward(std::slice::from_ref(first), select::MAX_EFFECTS);
+        let full = selected.len() >= select::MAX_EFFECTS;
         if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
             ended = format!("{ended}; then {dropped}");
         }
-        if let Some(joint) = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
-            ended = format!("{ended}; then {joint}");
+        let greedy = selected.clone();
+        let joint = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline);
+        let left = |s: &[EffectFit]| s.last().map_or(f64::INFINITY, |e| e.rms_after);
+        // A joint model that leaves nothing material is kept; else the joint model is kept unless
+        // going on leaves clearly less.
+        let settled = joint.is_some() && baseline.misses_materially(left(&selected)) == Some(false);
+        let (more, more_ended) = if full && !settled { forward(&greedy, select::MAX_EFFECTS_GOING_ON) } else { (Vec::new(), String::new()) };
+        let going_on = more.len() > greedy.len() && (joint.is_none() || left(&more) * GOING_ON_MARGIN < left(&selected));
+        match joint {
+            _ if going_on => (selected, ended) = (more, format!("{ended}; it went on: {more_ended}")),
+            Some(joint) => ended = format!("{ended}; then {joint}"),
+            None => {}
         }
         (selected, ended)
     };

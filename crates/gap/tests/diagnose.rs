@@ -750,3 +750,19 @@ fn mains_hum_over_several_of_its_periods_names_nothing() {
     assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
     assert_final_cl_holds(&dx, cl);
 }
+
+/// A board with five effects, one of which the joint refit does not carry: dead time (30 ns,
+/// 400 pF on the node), 15 mΩ switches, an ESL of 8 nH in C's branch, read 3 % of a period late.
+/// The sequence fills its four steps with the others; the joint refit has no ESL to free, so the
+/// sequence goes on and names it (cut at four, it was left out), and Cl's interval holds.
+#[test]
+fn a_full_sequence_the_joint_refit_cannot_finish_goes_on() {
+    let cl = 10e-6;
+    let p = Params { cl, dead_time: 30e-9, switch_node_capacitance: 400e-12, switch_resistance: 0.015, esl: 8e-9, ..Params::default() };
+    let dx = diagnose_switched(&read_late(p, 3));
+    let labels: Vec<String> = dx.selected.iter().map(|e| e.label()).collect();
+    for effect in ["dead_time", "switch_resistance", "esl", "sample_delay"] {
+        assert!(labels.iter().any(|l| l == effect), "{effect} not in {labels:?}: {}", dx.selection_ended);
+    }
+    assert_final_cl_holds(&dx, cl);
+}
