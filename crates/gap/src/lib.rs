@@ -38,6 +38,7 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
+pub use tested::{CL_FIDELITY, TestedCl, tested_cl};
 
 /// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
 /// be taken instead (the joint model has fewer effects, each judged given all the others).
@@ -47,7 +48,6 @@ const GOING_ON_MARGIN: f64 = 1.05;
 /// switch node's ring, which the fits leave out (README, sixteenth session: a ringing node's
 /// criterion has a valley per phase, narrower than ±2 % in its capacitance).
 const DEEP_DCM: f64 = 0.5;
-pub use tested::{CL_FIDELITY, TestedCl, tested_cl};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, thiserror::Error)]

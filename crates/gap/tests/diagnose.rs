@@ -753,8 +753,8 @@ fn mains_hum_over_several_of_its_periods_names_nothing() {
 
 /// A board with five effects, one of which the joint refit does not carry: dead time (30 ns,
 /// 400 pF on the node), 15 mΩ switches, an ESL of 8 nH in C's branch, read 3 % of a period late.
-/// The sequence fills its four steps with the others; the joint refit has no ESL to free, so the
-/// sequence goes on and names it (cut at four, it was left out), and Cl's interval holds.
+/// The sequence fills its four steps with the others, and the joint refit, which has no ESL to
+/// free, put it down as an Rc drift; the sequence goes on and names it, and Cl's interval holds.
 #[test]
 fn a_full_sequence_the_joint_refit_cannot_finish_goes_on() {
     let cl = 10e-6;
