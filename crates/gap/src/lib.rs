@@ -221,11 +221,13 @@ impl Diagnosis {
     pub fn regime(&self) -> Option<String> {
         self.dcm_share.map(|share| match share {
             0.0 => "the final model, a diode buck, conducts continuously (CCM) in every period".to_string(),
-            s if s >= DEEP_DCM => format!(
-                "the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero); in deep DCM a real switch node rings with L once the diode blocks, and the ring's current at the next turn-on moves each period's charge: not in the fits (its phase cannot be fitted), so Cl, L and the drop may take its place",
-                100.0 * s
-            ),
-            s => format!("the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero)", 100.0 * s),
+            s => {
+                let share = format!("the final model, a diode buck, starts {:.1} % of its periods in DCM (the diode blocked, il at zero)", 100.0 * s);
+                if s < DEEP_DCM {
+                    return share;
+                }
+                format!("{share}; in deep DCM a real switch node rings with L once the diode blocks, and the ring's current at the next turn-on moves each period's charge: not in the fits (its phase cannot be fitted), so Cl, L and the drop may take its place")
+            }
         })
     }
 }
