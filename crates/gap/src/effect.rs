@@ -102,9 +102,9 @@ pub struct ClMove {
 impl ClMove {
     /// A sentence on the interval's test: the test against the high-pass refit (or why it was
     /// not made), the bias law's spread, the operating point Cl is read at, the widening for
-    /// model error, a gross miss, and whether the interval was held to the circuit model's
-    /// fidelity (`at_fidelity`, see [`crate::CL_FIDELITY`]).
-    pub(crate) fn sentence(&self, at_fidelity: bool) -> String {
+    /// model error, a gross miss, and the circuit model's fidelity the interval was held to
+    /// (`held_to`, see [`crate::CL_FIDELITY`]).
+    pub(crate) fn sentence(&self, held_to: Option<f64>) -> String {
         let mut test = self.check.as_ref().map_or_else(|| format!("interval not tested: {}", self.check_skipped.as_deref().unwrap_or_default()), ToString::to_string);
         if let Some(law) = &self.bias_law {
             test += &format!("; {law}");
@@ -126,8 +126,8 @@ impl ClMove {
                 test += &format!("; {misfit}");
             }
         }
-        if at_fidelity {
-            test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * crate::CL_FIDELITY);
+        if let Some(fidelity) = held_to {
+            test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * fidelity);
         }
         test
     }
@@ -1073,11 +1073,11 @@ mod tests {
         let mut cl = ClMove::at(14.4e-6, [0.0, f64::INFINITY], 10e-6);
         cl.misses_by_floors = Some(184.6);
         cl.current_misfit = Some(crate::CurrentMisfit { probe_gain: 0.79, beyond_tolerance: 0.431, floor: 0.02 });
-        let sentence = cl.sentence(false);
+        let sentence = cl.sentence(None);
         assert_eq!(sentence.matches("not identified").count(), 1, "{sentence}");
         assert!(sentence.contains("184.6× its noise floor") && sentence.contains("probe gain of ×0.79"), "{sentence}");
         cl.misses_by_floors = None;
-        let sentence = cl.sentence(false);
+        let sentence = cl.sentence(None);
         assert!(sentence.contains("; not identified: the model's inductor current"), "{sentence}");
     }
 

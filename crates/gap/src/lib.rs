@@ -38,7 +38,7 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
-pub use tested::{CL_FIDELITY, TestedCl, tested_cl};
+pub use tested::{CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
 
 /// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
 /// be taken instead (the joint model has fewer effects, each judged given all the others).
@@ -184,7 +184,7 @@ pub struct Diagnosis {
     /// the model's other values refitted (switched data). Cl's CI95 holds these values exact.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_leverage: Option<BTreeMap<String, f64>>,
-    /// The final Cl's CI95 was widened to ±[`CL_FIDELITY`], the circuit model's fidelity.
+    /// The final Cl's CI95 was widened to the circuit model's fidelity ([`Diagnosis::cl_fidelity`]).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub cl_at_fidelity: bool,
     /// The nominal model used.
@@ -206,7 +206,13 @@ impl Diagnosis {
                 &nominal
             }
         };
-        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity))
+        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then(|| self.cl_fidelity())))
+    }
+
+    /// The relative half-width the final Cl's CI95 is held to: [`CL_FIDELITY_WITH_EFFECTS`]
+    /// where the final model carries effects, [`CL_FIDELITY`] for the nominal alone.
+    pub fn cl_fidelity(&self) -> f64 {
+        if self.selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }
     }
 
     /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
@@ -415,7 +421,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // (Switched data, as the model sees it: the duty delayed where it is late.)
         last.cl.held_to_current(final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est)));
         let at_fidelity;
-        (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95);
+        (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, CL_FIDELITY_WITH_EFFECTS);
         (None, at_fidelity)
     } else {
         let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual);
@@ -476,6 +482,6 @@ mod tests {
             cl_misses_by_floors: None,
             cl_current_misfit: Some(misfit),
         };
-        assert!(before.cl_move().sentence(false).contains("probe gain of ×0.60"), "{}", before.cl_move().sentence(false));
+        assert!(before.cl_move().sentence(None).contains("probe gain of ×0.60"), "{}", before.cl_move().sentence(None));
     }
 }
