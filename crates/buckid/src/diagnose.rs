@@ -183,7 +183,11 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
         .iter()
         .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm")
         .map(|(k, v)| {
-            // A reading's gain error reads as a percentage.
+            // A delay is a whole number of periods; a reading's gain error reads as a percentage.
+            if k == "delay" {
+                let late_readings = if *v < 0.0 { " (the readings a period late: each row's outputs taken at its period's end, not its start as the data contract has them)" } else { "" };
+                return format!("delay = {v:.0} period{}{late_readings}", if v.abs() == 1.0 { "" } else { "s" });
+            }
             let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
             format!("{k} = {}", with_ci(v * scale, e.ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
         })

@@ -9,7 +9,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::Criterion;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, residual, rms, variance};
+use crate::effect::{Baseline, DELAYS, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, residual, rms, variance};
 use crate::options::{DiagnoseOptions, Nominal, nominal_options};
 
 fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candidate, String> {
@@ -187,8 +187,9 @@ fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions) 
         let ci95 = BTreeMap::from([("switch_resistance".to_string(), [e.ci95.0 - nominal.rl, e.ci95.1 - nominal.rl])]);
         Ok(Trial { cand, params, ci95, extra: 1, not_nested: false, drift: None })
     });
-    // delay: the duty drives the switch 1 or 2 periods late.
-    let delay = best_of((1..=2usize).map(|n| (n, run(&delayed(data, n), nominal, base_opts.clone())))).map(|(n, cand)| {
+    // delay: the duty drives the switch 1 or 2 periods late, or the readings were taken a
+    // period late (a file whose outputs are each period's last, not its first).
+    let delay = best_of(DELAYS.into_iter().map(|n| (n, run(&delayed(data, n), nominal, base_opts.clone())))).map(|(n, cand)| {
         let params = BTreeMap::from([("delay".to_string(), n as f64)]);
         Trial { cand, params, ci95: BTreeMap::new(), extra: 1, not_nested: true, drift: None }
     });

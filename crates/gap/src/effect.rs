@@ -704,12 +704,25 @@ pub(crate) fn residual(c: &Candidate) -> Vec<f64> {
     c.validation.traces.measured.iter().zip(&c.validation.traces.simulated).map(|(m, s)| m - s).collect()
 }
 
-/// The duty delayed by `n` periods (the first periods repeat the first duty).
-pub(crate) fn delayed(data: &DataSet, n: usize) -> DataSet {
+/// The data as a model with a delay of `n` periods sees it: for `n > 0` the duty acts `n`
+/// periods late (a controller's or a modulator's latency: the first periods repeat the first
+/// duty); for `n = -1` the readings were taken a period late, at each period's end rather than
+/// its start (the contract's), so every input acts a row early (the last row repeats).
+pub(crate) fn delayed(data: &DataSet, n: isize) -> DataSet {
     let mut d = data.clone();
-    d.duty = (0..data.len()).map(|k| data.duty[k.saturating_sub(n)]).collect();
+    let last = data.len().saturating_sub(1);
+    let shift = |signal: &[f64]| -> Vec<f64> { (0..data.len()).map(|k| signal[k.saturating_add_signed(-n).min(last)]).collect() };
+    d.duty = shift(&data.duty);
+    if n < 0 {
+        d.io = shift(&data.io);
+        d.vin = shift(&data.vin);
+    }
     d
 }
+
+/// The delays the `delay` candidate tries: the readings a period late (at each period's end),
+/// and the duty one or two periods late.
+pub(crate) const DELAYS: [isize; 3] = [-1, 1, 2];
 
 /// The effects fitted with the plant simulator (nonlinear: intervals that move with the state,
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values (in units

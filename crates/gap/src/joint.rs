@@ -127,7 +127,7 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
     let t = x.assess(cand.clone(), nominal).ok()?;
     let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
     if g.name == "sample_delay" {
-        fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+        fit.judge_in_il(&with.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
     }
     Some(fit.into_step())
 }

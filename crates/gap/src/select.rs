@@ -73,8 +73,9 @@ pub(crate) struct Stack {
     pub params: Params,
     /// Free parameters, Cl first.
     pub free: Vec<Free>,
-    /// Periods the duty drives the switch late.
-    pub delay: usize,
+    /// Periods the duty drives the switch late (−1: the readings a period late, see
+    /// [`delayed`]).
+    pub delay: isize,
     /// The effects it holds.
     pub effects: Vec<&'static str>,
     /// The switched circuit (ripple included, fitted with the plant simulator), else the
@@ -118,7 +119,7 @@ impl Stack {
                 f.set(&mut self.params, param(f.name())?);
                 self.free.push(f);
             }
-            "delay" => self.delay = param("delay")? as usize,
+            "delay" => self.delay = param("delay")? as isize,
             name if let Some(f) = refinement(name) => {
                 f.set(&mut self.params, param(f.name())?);
                 self.free.push(f);
@@ -141,7 +142,7 @@ impl Stack {
 
     /// The data as this model sees it (the duty delayed).
     pub fn data(&self, data: &DataSet) -> DataSet {
-        if self.delay > 0 { delayed(data, self.delay) } else { data.clone() }
+        if self.delay != 0 { delayed(data, self.delay) } else { data.clone() }
     }
 
     /// Fits the free parameters from the best of `starts`: with the plant simulator on switched
@@ -658,7 +659,7 @@ pub(crate) fn forward(
         // vout within its floor while il still shows a late reading: a vout-only explanation (a
         // probe's gain, a load ESR) can take vout there with the instant, and so Cl, wrong. The
         // late reading alone is tried then.
-        let late_pending = within && stack.switched && !stack.free.contains(&Free::SampleDelay) && il_misses_materially(data, &stack.params, n_est);
+        let late_pending = within && stack.switched && !stack.free.contains(&Free::SampleDelay) && il_misses_materially(&stack.data(data), &stack.params, n_est);
         if within && !late_pending {
             break "the gap left is within the noise floor".to_string();
         }
@@ -683,7 +684,7 @@ pub(crate) fn forward(
             let t = t.ok()?;
             let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
             if fit.name == "sample_delay" {
-                fit.judge_in_il(data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+                fit.judge_in_il(&x.stack.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             }
             Some((fit.into_step(), cand, x.stack.clone()))
         };
@@ -692,7 +693,7 @@ pub(crate) fn forward(
             // A late reading is judged in il, which the vout screen cannot see: tried wherever
             // the model so far misses il materially, and first: one the current shows is taken
             // before any circuit effect (as in the first step), so these need no fit then.
-            let il_missed = il_misses_materially(data, &stack.params, n_est);
+            let il_missed = il_misses_materially(&stack.data(data), &stack.params, n_est);
             let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
             if late_pending {
                 rest.clear();

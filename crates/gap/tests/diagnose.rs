@@ -88,6 +88,28 @@ fn late_duty_is_delay() {
     check(&data(c), &["delay"]);
 }
 
+/// A file whose outputs were read a period late (each row's at its period's end, not its
+/// start): a one-row slip between the duty and the readings, which nothing in the circuit
+/// explains, is named `delay` = −1 first; the load ESR behind it is then found and Cl holds,
+/// as on the same record read at the period starts.
+#[test]
+fn readings_a_period_late_are_a_negative_delay() {
+    let mut c = plant(Params { cl: CL, ..Params::default() }, Mode::Switched);
+    c.set(VarId::LoadEsr, 0.02).unwrap();
+    let on_time = data(c);
+    let mut late = on_time.clone();
+    late.vout = on_time.vout[1..].to_vec();
+    late.il = on_time.il.as_ref().map(|il| il[1..].to_vec());
+    late.vout_avg = None;
+    late.il_avg = None;
+    let late = late.slice(0..on_time.len() - 1);
+    let dx = diagnose_switched(&late);
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["delay", "load_esr"], "{}", dx.selection_ended);
+    assert_eq!(dx.selected[0].params["delay"], -1.0);
+    assert_final_cl_holds(&dx, CL);
+}
+
 /// On switched data the ripple is always there: against the averaged nominal it is one finding
 /// and the other effect a second (switch resistance 20 mΩ; a one-period delay).
 #[test]
