@@ -8,7 +8,9 @@
 //! transients are the output's divided by that impedance: that model's `il` swung 65 % more
 //! than the measured one. A probe's gain error cannot explain that; a current that needs one
 //! far beyond a probe's tolerance says the model's impedance, and so its Cl, is not the
-//! converter's.
+//! converter's. A gain of −1 within that tolerance is a probe the other way round (or a current
+//! counted into the switch node): the magnitude is what tells the impedance, and the reversal is
+//! said.
 use buck_model::Params;
 use estimator::data::DataSet;
 use serde::Serialize;
@@ -47,15 +49,29 @@ impl CurrentMisfit {
         let (_, sim) = estimator::simulated::simulate_outputs(&raw, data, data.vout[0]).ok()?;
         let (measured, simulated) = (il.get(n_est..)?, sim.get(n_est..)?);
         let (_, gain_error) = estimator::simulated::reading_calibration(measured, simulated);
-        let excess = (gain_error.abs() - PROBE_GAIN_TOLERANCE).max(0.0);
+        let probe_gain = 1.0 + gain_error;
+        let excess = ((probe_gain.abs() - 1.0).abs() - PROBE_GAIN_TOLERANCE).max(0.0);
         let spread = crate::effect::rms(&centred(simulated));
-        Some(Self { probe_gain: 1.0 + gain_error, beyond_tolerance: excess * spread, floor })
+        Some(Self { probe_gain, beyond_tolerance: excess * spread, floor })
     }
 
     /// The model's impedance is not the converter's: the current left beyond a tolerable probe
     /// gain exceeds [`MISFIT_FLOORS`] noise floors.
     pub fn contradicts(&self) -> bool {
         self.beyond_tolerance > MISFIT_FLOORS * self.floor
+    }
+
+    /// The measured current reads the model's reversed (a negative probe gain).
+    pub fn reversed(&self) -> bool {
+        self.probe_gain < 0.0
+    }
+
+    /// That the measured current reads reversed, in words.
+    pub fn reversal(&self) -> String {
+        format!(
+            "the measured il reads reversed (a probe gain of ×{:.2}: the probe the other way round, or the current counted into the switch node; the contract's il flows from the switch node to the output)",
+            self.probe_gain
+        )
     }
 
     /// Why Cl is not identified, in words.
@@ -110,6 +126,14 @@ mod tests {
             *il *= 1.05;
         }
         let high = CurrentMisfit::of(&data, &truth, n_est).unwrap();
-        assert!((high.probe_gain - 1.05).abs() < 0.01 && !high.contradicts(), "{high:?}");
+        assert!((high.probe_gain - 1.05).abs() < 0.01 && !high.contradicts() && !high.reversed(), "{high:?}");
+        // The probe the other way round: the same impedance, said reversed.
+        for il in data.il.as_mut().unwrap() {
+            *il = -*il;
+        }
+        let reversed = CurrentMisfit::of(&data, &truth, n_est).unwrap();
+        assert!((reversed.probe_gain + 1.05).abs() < 0.01 && !reversed.contradicts() && reversed.reversed(), "{reversed:?}");
+        let misfit = CurrentMisfit::of(&data, &wrong, n_est).unwrap();
+        assert!(misfit.contradicts() && misfit.reversed(), "{misfit:?}");
     }
 }

@@ -94,7 +94,8 @@ pub struct ClMove {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
     /// For a final model whose inductor current the measured one matches only through a probe
-    /// gain far beyond a probe's tolerance: how it misses; Cl is then not identified.
+    /// gain far beyond a probe's tolerance (Cl is then not identified), or through a reversed
+    /// probe: how it misses.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub current_misfit: Option<crate::CurrentMisfit>,
 }
@@ -118,7 +119,9 @@ impl ClMove {
         if let Some(k) = self.misses_by_floors {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
-        if let Some(misfit) = &self.current_misfit {
+        if let Some(misfit) = self.current_misfit.as_ref().filter(|m| !m.contradicts()) {
+            test += &format!("; {}", misfit.reversal());
+        } else if let Some(misfit) = &self.current_misfit {
             // A second reason joins the first rather than saying "not identified" again.
             if self.misses_by_floors.is_some() {
                 test += &format!("; and {}", misfit.reason());
@@ -139,12 +142,19 @@ impl ClMove {
     }
 
     /// Cl not identified where `misfit` (its model's inductor current against the measured one)
-    /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]).
+    /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]); a reversed
+    /// current is kept to be said either way.
     pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>) {
-        if let Some(misfit) = misfit.filter(crate::CurrentMisfit::contradicts) {
+        let Some(misfit) = misfit.filter(|m| m.contradicts() || m.reversed()) else { return };
+        if misfit.contradicts() {
             self.ci95 = [0.0, f64::INFINITY];
-            self.current_misfit = Some(misfit);
         }
+        self.current_misfit = Some(misfit);
+    }
+
+    /// Cl is not identified for its model's inductor current ([`ClMove::held_to_current`]).
+    pub(crate) fn voided_by_current(&self) -> bool {
+        self.current_misfit.as_ref().is_some_and(crate::CurrentMisfit::contradicts)
     }
 
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
@@ -1092,6 +1102,18 @@ mod tests {
         cl.misses_by_floors = None;
         let sentence = cl.sentence(None);
         assert!(sentence.contains("; not identified: the model's inductor current"), "{sentence}");
+    }
+
+    /// A current read through a probe the other way round is said, and voids nothing: the
+    /// interval stands.
+    #[test]
+    fn a_reversed_current_is_said_not_voided() {
+        let mut cl = ClMove::at(10e-6, [9.9e-6, 10.1e-6], 10e-6);
+        cl.held_to_current(Some(crate::CurrentMisfit { probe_gain: -1.01, beyond_tolerance: 0.0, floor: 0.02 }));
+        assert_eq!(cl.ci95, [9.9e-6, 10.1e-6]);
+        assert!(!cl.voided_by_current());
+        let sentence = cl.sentence(None);
+        assert!(sentence.contains("il reads reversed (a probe gain of ×-1.01") && !sentence.contains("not identified"), "{sentence}");
     }
 
     #[test]

@@ -104,7 +104,7 @@ pub struct Before {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_misses_by_floors: Option<f64>,
     /// When the verdict is `none` and the nominal's inductor current contradicts the measured
-    /// one ([`CurrentMisfit`]): how (Cl not identified).
+    /// one (Cl not identified) or the measured one reads it reversed ([`CurrentMisfit`]): how.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_current_misfit: Option<CurrentMisfit>,
 }

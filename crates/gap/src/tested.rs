@@ -80,7 +80,7 @@ impl TestedCl {
     /// one ([`CurrentMisfit`]: the nominal's impedance is not the converter's).
     pub(crate) fn against_current(mut self, data: &DataSet, nominal: &Params, n_est: usize) -> Self {
         self.cl.held_to_current(CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est));
-        self.at_fidelity &= self.cl.current_misfit.is_none();
+        self.at_fidelity &= !self.cl.voided_by_current();
         self
     }
 
