@@ -140,7 +140,7 @@ impl Stack {
         Ok(self)
     }
 
-    /// The data as this model sees it (the duty delayed).
+    /// The data as this model sees it (the duty delayed, or every input a row early: [`delayed`]).
     pub fn data(&self, data: &DataSet) -> DataSet {
         if self.delay != 0 { delayed(data, self.delay) } else { data.clone() }
     }
