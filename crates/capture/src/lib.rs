@@ -8,8 +8,9 @@
 //! of the mid-level crossing. Without edges the periods come from `fs` (given or `# fs`), their
 //! phase from the valley of the folded inductor current when `il` is recorded. Each row: the
 //! period start `time`, `duty` = (falling − rising)/T from the edges (from the peak of `il`
-//! without edges), `vout`/`il` interpolated at the start, `vout_avg`/`il_avg` by the trapezoid
-//! rule over the period, `vin` as the period average when recorded.
+//! without edges), `vout`/`il` at the start (a line through the quiet stretch before the edge,
+//! extrapolated to it: see `at_start`), `vout_avg`/`il_avg` by the trapezoid rule over the
+//! period, `vin` as the period average when recorded.
 #![forbid(unsafe_code)]
 
 use std::collections::BTreeMap;
@@ -182,6 +183,41 @@ fn average(t: &[f64], x: &[f64], a: f64, b: f64) -> f64 {
 /// Least samples per period for a meaningful reduction.
 pub const MIN_SAMPLES_PER_PERIOD: f64 = 8.0;
 
+/// Stretch before a period's start left out of its start value, as a fraction of the period:
+/// the switch node starts to move (and a probe's `vout` to ring) before the edge's mid-level.
+const START_GUARD: f64 = 0.01;
+/// Stretch before that guard whose samples give a period's start value, as a fraction of the
+/// period (never reaching back past the previous falling edge, into the on-time).
+const START_SPAN: f64 = 0.1;
+/// Fewest samples in that stretch for a straight line through them; with fewer, the start value
+/// is interpolated at the edge.
+const START_SAMPLES: usize = 4;
+
+/// `x` at a period start `a`: the least-squares line through the samples of the quiet stretch
+/// `[from, a − guard]` before it, `from` = `a − guard − span` but not before `off` (the previous
+/// falling edge plus the guard) nor the capture's start, extrapolated to `a`. Between edges
+/// `vout` and `il` are smooth (straight to within the ripple's curvature over a tenth of a
+/// period), so the line averages a scope's noise and its 8-bit steps over the stretch and keeps
+/// off the edge's spike; with too few samples there (a capture that begins at the edge), the
+/// value interpolated at `a`.
+fn at_start(t: &[f64], x: &[f64], a: f64, period: f64, off: Option<f64>) -> f64 {
+    let guard = START_GUARD * period;
+    let from = (a - guard - START_SPAN * period).max(off.map_or(f64::NEG_INFINITY, |f| f + guard));
+    let (i0, i1) = (t.partition_point(|v| *v < from), t.partition_point(|v| *v <= a - guard));
+    if i1 < i0 + START_SAMPLES {
+        return interp(t, x, a);
+    }
+    let n = (i1 - i0) as f64;
+    let (mt, mx) = (t[i0..i1].iter().map(|v| v - a).sum::<f64>() / n, x[i0..i1].iter().sum::<f64>() / n);
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (ti, xi) in t[i0..i1].iter().zip(&x[i0..i1]) {
+        let dt = ti - a - mt;
+        sxy += dt * (xi - mx);
+        sxx += dt * dt;
+    }
+    mx - mt * sxy / sxx
+}
+
 /// Reduces a capture to one row per complete period; `fs` [Hz] is used when the capture has
 /// no switching edges (else `# fs`).
 pub fn reduce(cap: &Capture, fs: Option<f64>) -> Result<Periods, CaptureError> {
@@ -270,12 +306,14 @@ pub fn reduce(cap: &Capture, fs: Option<f64>) -> Result<Periods, CaptureError> {
                 None => return Err(CaptureError::Periods("the duty cannot be measured: no `sw`/`gate` edges and no `il`".into())),
             },
         };
+        // The off-time before this start begins at the last falling edge before it.
+        let off = falling.as_ref().and_then(|f| f[..f.partition_point(|v| *v < a)].last().copied());
         out.time.push(a);
         out.duty.push(duty);
-        out.vout.push(interp(t, &cap.vout, a));
+        out.vout.push(at_start(t, &cap.vout, a, mean_period, off));
         out.vout_avg.push(average(t, &cap.vout, a, b));
         if let Some(il) = &cap.il {
-            il0.push(interp(t, il, a));
+            il0.push(at_start(t, il, a, mean_period, off));
             il_avg.push(average(t, il, a, b));
         }
         if let Some(v) = &cap.vin {
