@@ -77,6 +77,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     let map: BTreeMap<String, String> = args.map.iter().map(|m| pair(m, "--map")).collect::<Result<_>>()?;
     eprintln!("reading {}", args.data.display());
     let data = DataSet::read_csv(&args.data)?;
+    data.check_output_level()?;
     let fmu = match &args.fmu {
         Some(path) => {
             eprintln!("loading {}", path.display());

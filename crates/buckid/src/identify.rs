@@ -325,7 +325,9 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         }
         (None, Some(path)) => {
             eprintln!("reading {}", path.display());
-            (DataSet::read_csv(path)?, None, args.holdout, path.display().to_string())
+            let data = DataSet::read_csv(path)?;
+            data.check_output_level()?;
+            (data, None, args.holdout, path.display().to_string())
         }
         (None, None) => bail!("give --fmu PATH or --data FILE"),
     };

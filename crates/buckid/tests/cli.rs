@@ -145,6 +145,9 @@ fn bad_data_files_fail_with_a_message_naming_the_problem() {
         ("text.csv", "time,duty,vin,io,vout\n0,0.5,12,1,five\n", "line 2: column `vout` value \"five\""),
         ("novout.csv", "time,duty\n0,0.5\n", "required column `vout` is missing"),
         ("short.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,5.9\n3e-6,0.5,5.9\n", "too few"),
+        // A scope channel AC-coupled: the ripple around zero, where a buck at half duty from
+        // 12 V gives about 6 V.
+        ("accoupled.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,0.01\n3e-6,0.5,-0.01\n", "`vout` averages 0.000 V where duty·vin averages 6.000 V"),
     ];
     for (name, text, needle) in cases {
         let path = dir.path().join(name);
