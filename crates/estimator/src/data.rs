@@ -131,7 +131,7 @@ impl DataSet {
         };
         let vout = mean(&mut self.vout.iter().copied());
         let called_for = mean(&mut self.duty.iter().zip(&self.vin).map(|(d, v)| d * v));
-        if called_for > 0.0 && !(vout >= MIN_OUTPUT_SHARE * called_for) {
+        if called_for > 0.0 && vout < MIN_OUTPUT_SHARE * called_for {
             // (A mean that rounds to zero is printed as one, not as -0.000.)
             let vout = if vout.abs() < 5e-4 { 0.0 } else { vout };
             return Err(data_err(format!(
