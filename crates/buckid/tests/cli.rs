@@ -148,6 +148,8 @@ fn bad_data_files_fail_with_a_message_naming_the_problem() {
         // A scope channel AC-coupled: the ripple around zero, where a buck at half duty from
         // 12 V gives about 6 V.
         ("accoupled.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,0.01\n3e-6,0.5,-0.01\n", "`vout` averages 0.000 V where duty·vin averages 6.000 V"),
+        // The output in millivolts under a bare `vout` header.
+        ("millivolts.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,5900\n3e-6,0.5,5910\n", "above the 12.000 V `vin` averages"),
     ];
     for (name, text, needle) in cases {
         let path = dir.path().join(name);

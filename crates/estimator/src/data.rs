@@ -14,6 +14,10 @@ use crate::error::{EstimatorError, data_err};
 /// ([`DataSet::check_output_level`]).
 pub const MIN_OUTPUT_SHARE: f64 = 0.1;
 
+/// Most mean `vout`, as a share of the mean `vin`, of a record a buck can have produced
+/// (its output at no load in DCM approaches `vin`; a probe's gain error adds a little).
+pub const MAX_OUTPUT_SHARE: f64 = 1.5;
+
 /// Measured or simulated signals at one sample per switching period.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DataSet {
@@ -121,9 +125,10 @@ impl DataSet {
 
     /// Checks that `vout` holds a buck's output in volts: its mean at least
     /// [`MIN_OUTPUT_SHARE`] of the mean `duty·vin` the record's inputs call for (a buck gives
-    /// that less its drops, more in DCM). An AC-coupled scope channel (mean near zero), a probe
-    /// zeroed at the operating point or a column in other units does not, and fitting it once
-    /// named a 626 mΩ load ESR with Cl on its 1 F bound.
+    /// that less its drops, more in DCM) and at most [`MAX_OUTPUT_SHARE`] of the mean `vin` (a
+    /// buck steps down). An AC-coupled scope channel (mean near zero), a probe zeroed at the
+    /// operating point or a column in millivolts does not, and fitting the first once named a
+    /// 626 mΩ load ESR with Cl on its 1 F bound.
     pub fn check_output_level(&self) -> Result<(), EstimatorError> {
         let mean = |x: &mut dyn Iterator<Item = f64>| {
             let (sum, n) = x.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
@@ -137,6 +142,10 @@ impl DataSet {
             return Err(data_err(format!(
                 "`vout` averages {vout:.3} V where duty·vin averages {called_for:.3} V, and a buck's output is near that: an AC-coupled or zeroed channel, or another unit? The contract's `vout` is the output voltage, DC-coupled, in volts"
             )));
+        }
+        let vin = mean(&mut self.vin.iter().copied());
+        if vin > 0.0 && vout > MAX_OUTPUT_SHARE * vin {
+            return Err(data_err(format!("`vout` averages {vout:.4e} V, above the {vin:.3} V `vin` averages, and a buck steps down: millivolts, or another unit? The contract's `vout` is in volts")));
         }
         Ok(())
     }
