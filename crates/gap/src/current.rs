@@ -9,8 +9,9 @@
 //! than the measured one. A probe's gain error cannot explain that; a current that needs one
 //! far beyond a probe's tolerance says the model's impedance, and so its Cl, is not the
 //! converter's. A gain of −1 within that tolerance is a probe the other way round (or a current
-//! counted into the switch node): the magnitude is what tells the impedance, and the reversal is
-//! said.
+//! counted into the switch node), one of ×10, ×100 or ×1000 (or their inverses) a reading in
+//! other units or a probe's attenuation set a decade off: the magnitude within its decade is
+//! what tells the impedance, and the reading's slip is said.
 use buck_model::Params;
 use estimator::data::DataSet;
 use serde::Serialize;
@@ -36,6 +37,10 @@ pub struct CurrentMisfit {
     pub beyond_tolerance: f64,
     /// The white-noise floor of the measured current [A].
     pub floor: f64,
+    /// The RMS of the measured current's swing the model's explains through the probe gain
+    /// [A]: only a swing well above the floor tells how the reading slipped.
+    #[serde(skip)]
+    pub explained: f64,
 }
 
 impl CurrentMisfit {
@@ -50,9 +55,32 @@ impl CurrentMisfit {
         let (measured, simulated) = (il.get(n_est..)?, sim.get(n_est..)?);
         let (_, gain_error) = estimator::simulated::reading_calibration(measured, simulated);
         let probe_gain = 1.0 + gain_error;
-        let excess = ((probe_gain.abs() - 1.0).abs() - PROBE_GAIN_TOLERANCE).max(0.0);
         let spread = crate::effect::rms(&centred(simulated));
-        Some(Self { probe_gain, beyond_tolerance: excess * spread, floor })
+        let mut misfit = Self { probe_gain, beyond_tolerance: 0.0, floor, explained: probe_gain.abs() * spread };
+        // In the measured current's units: the gain's part beyond a probe's tolerance, within
+        // the decade the reading slipped by (none as a rule).
+        let scale = if misfit.rescaled() { 10f64.powi(decade_of(probe_gain)) } else { 1.0 };
+        misfit.beyond_tolerance = ((probe_gain.abs() / scale - 1.0).abs() - PROBE_GAIN_TOLERANCE).max(0.0) * scale * spread;
+        Some(misfit)
+    }
+
+    /// The measured current follows the model's swing well above its noise floor: only then
+    /// does the probe gain tell how the reading slipped. (A diode buck deep in DCM starts its
+    /// periods at zero current: there the gain is noise, ×0.105 on a third-generator board.)
+    fn follows(&self) -> bool {
+        self.explained > MISFIT_FLOORS * self.floor
+    }
+
+    /// The measured current reads the model's at another scale, ×10, ×100 or ×1000 or their
+    /// inverses within a probe's tolerance, following its swing.
+    pub fn rescaled(&self) -> bool {
+        self.follows() && decade_of(self.probe_gain) != 0
+    }
+
+    /// The measured current reads the model's reversed or rescaled, following its swing: a slip
+    /// of the reading, not of the model.
+    pub fn slipped(&self) -> bool {
+        self.follows() && (self.reversed() || self.rescaled())
     }
 
     /// The model's impedance is not the converter's: the current left beyond a tolerable probe
@@ -66,12 +94,16 @@ impl CurrentMisfit {
         self.probe_gain < 0.0
     }
 
-    /// That the measured current reads reversed, in words.
-    pub fn reversal(&self) -> String {
-        format!(
-            "the measured il reads reversed (a probe gain of ×{:.2}: the probe the other way round, or the current counted into the switch node; the contract's il flows from the switch node to the output)",
-            self.probe_gain
-        )
+    /// How the measured current's reading slipped, in words.
+    pub fn slip(&self) -> String {
+        let mut how = Vec::new();
+        if self.reversed() {
+            how.push("reversed (the probe the other way round, or the current counted into the switch node; the contract's il flows from the switch node to the output)");
+        }
+        if self.rescaled() {
+            how.push("at another scale (milliamps under a bare `il` header, or a probe's attenuation set a decade off; the contract's il is in amperes)");
+        }
+        format!("the measured il reads ×{:.3} the model's: {}", self.probe_gain, how.join(", and "))
     }
 
     /// Why Cl is not identified, in words.
@@ -90,6 +122,14 @@ impl std::fmt::Display for CurrentMisfit {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "not identified: {}", self.reason())
     }
+}
+
+/// The decade `d` (±1 to ±3) a probe gain `gain` lies within a probe's tolerance of in
+/// magnitude (`|gain| ≈ 10^d`), else 0.
+fn decade_of(gain: f64) -> i32 {
+    let d = gain.abs().log10().round();
+    let rescaled = d != 0.0 && d.abs() <= 3.0 && (gain.abs() / 10f64.powf(d) - 1.0).abs() <= PROBE_GAIN_TOLERANCE;
+    if rescaled { d as i32 } else { 0 }
 }
 
 /// `x` less its mean.
@@ -132,8 +172,24 @@ mod tests {
             *il = -*il;
         }
         let reversed = CurrentMisfit::of(&data, &truth, n_est).unwrap();
-        assert!((reversed.probe_gain + 1.05).abs() < 0.01 && !reversed.contradicts() && reversed.reversed(), "{reversed:?}");
+        assert!((reversed.probe_gain + 1.05).abs() < 0.01 && !reversed.contradicts() && reversed.reversed() && !reversed.rescaled(), "{reversed:?}");
         let misfit = CurrentMisfit::of(&data, &wrong, n_est).unwrap();
         assert!(misfit.contradicts() && misfit.reversed(), "{misfit:?}");
+        // In milliamps: the same impedance, said rescaled; the wrong one still contradicts.
+        for il in data.il.as_mut().unwrap() {
+            *il *= -1000.0;
+        }
+        let milliamps = CurrentMisfit::of(&data, &truth, n_est).unwrap();
+        assert!((milliamps.probe_gain / 1050.0 - 1.0).abs() < 0.01 && !milliamps.contradicts() && milliamps.rescaled() && !milliamps.reversed(), "{milliamps:?}");
+        assert!(milliamps.slip().contains("another scale"), "{}", milliamps.slip());
+        let misfit = CurrentMisfit::of(&data, &wrong, n_est).unwrap();
+        assert!(misfit.contradicts() && !misfit.rescaled(), "{misfit:?}");
+    }
+
+    /// A gain near a decade within a probe's tolerance is a rescaled reading; one between
+    /// decades, or near zero (the model's current unrelated to the measured one), is not.
+    #[test]
+    fn only_a_gain_near_a_decade_is_a_rescaled_reading() {
+        assert_eq!([1000.0, 0.0105, -98.0, 1.05, 0.6, 3.2, 0.00036, 1e5].map(decade_of), [3, -2, 2, 0, 0, 0, 0, 0]);
     }
 }

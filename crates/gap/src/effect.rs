@@ -94,8 +94,8 @@ pub struct ClMove {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
     /// For a final model whose inductor current the measured one matches only through a probe
-    /// gain far beyond a probe's tolerance (Cl is then not identified), or through a reversed
-    /// probe: how it misses.
+    /// gain far beyond a probe's tolerance (Cl is then not identified), or through a reading
+    /// that slipped (reversed, rescaled): how it misses.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub current_misfit: Option<crate::CurrentMisfit>,
 }
@@ -120,7 +120,7 @@ impl ClMove {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
         if let Some(misfit) = self.current_misfit.as_ref().filter(|m| !m.contradicts()) {
-            test += &format!("; {}", misfit.reversal());
+            test += &format!("; {}", misfit.slip());
         } else if let Some(misfit) = &self.current_misfit {
             // A second reason joins the first rather than saying "not identified" again.
             if self.misses_by_floors.is_some() {
@@ -142,10 +142,10 @@ impl ClMove {
     }
 
     /// Cl not identified where `misfit` (its model's inductor current against the measured one)
-    /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]); a reversed
-    /// current is kept to be said either way.
+    /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]); a reading
+    /// that slipped (reversed, rescaled) is kept to be said either way.
     pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>) {
-        let Some(misfit) = misfit.filter(|m| m.contradicts() || m.reversed()) else { return };
+        let Some(misfit) = misfit.filter(|m| m.contradicts() || m.slipped()) else { return };
         if misfit.contradicts() {
             self.ci95 = [0.0, f64::INFINITY];
         }
@@ -1095,7 +1095,7 @@ mod tests {
     fn two_reasons_make_one_not_identified() {
         let mut cl = ClMove::at(14.4e-6, [0.0, f64::INFINITY], 10e-6);
         cl.misses_by_floors = Some(184.6);
-        cl.current_misfit = Some(crate::CurrentMisfit { probe_gain: 0.79, beyond_tolerance: 0.431, floor: 0.02 });
+        cl.current_misfit = Some(crate::CurrentMisfit { probe_gain: 0.79, beyond_tolerance: 0.431, floor: 0.02, explained: 0.5 });
         let sentence = cl.sentence(None);
         assert_eq!(sentence.matches("not identified").count(), 1, "{sentence}");
         assert!(sentence.contains("184.6× its noise floor") && sentence.contains("probe gain of ×0.79"), "{sentence}");
@@ -1109,11 +1109,11 @@ mod tests {
     #[test]
     fn a_reversed_current_is_said_not_voided() {
         let mut cl = ClMove::at(10e-6, [9.9e-6, 10.1e-6], 10e-6);
-        cl.held_to_current(Some(crate::CurrentMisfit { probe_gain: -1.01, beyond_tolerance: 0.0, floor: 0.02 }));
+        cl.held_to_current(Some(crate::CurrentMisfit { probe_gain: -1.01, beyond_tolerance: 0.0, floor: 0.02, explained: 0.5 }));
         assert_eq!(cl.ci95, [9.9e-6, 10.1e-6]);
         assert!(!cl.voided_by_current());
         let sentence = cl.sentence(None);
-        assert!(sentence.contains("il reads reversed (a probe gain of ×-1.01") && !sentence.contains("not identified"), "{sentence}");
+        assert!(sentence.contains("il reads ×-1.010 the model's: reversed") && !sentence.contains("not identified"), "{sentence}");
     }
 
     #[test]

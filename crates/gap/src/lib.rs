@@ -469,7 +469,7 @@ mod tests {
     /// final model's does: the misfit is carried through [`Before`].
     #[test]
     fn the_nominals_current_misfit_reaches_its_sentence() {
-        let misfit = CurrentMisfit { probe_gain: 0.6, beyond_tolerance: 1.7, floor: 0.02 };
+        let misfit = CurrentMisfit { probe_gain: 0.6, beyond_tolerance: 1.7, floor: 0.02, explained: 2.0 };
         let before = Before {
             model: "pwm",
             nrmse: 0.1,
