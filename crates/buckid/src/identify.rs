@@ -82,6 +82,17 @@ pub(crate) fn nominal_with(data: &DataSet, given: &BTreeMap<&str, f64>) -> Resul
         }
         None => meta,
     };
+    // No buck drives more load current than its input through L's resistance alone (a short
+    // at the output): more is a column in other units.
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let (io, short) = (mean(&data.io), mean(&data.vin) / p.rl);
+    if p.rl > 0.0 && io > short {
+        bail!(
+            "`io` averages {} where the input could drive {} through RL alone (vin/RL, a short at the output): milliamps under a bare `io` header, or another unit? The contract's io is in amperes",
+            si(io, "A", 4),
+            si(short, "A", 4)
+        );
+    }
     Ok((p, assumed))
 }
 

@@ -150,6 +150,8 @@ fn bad_data_files_fail_with_a_message_naming_the_problem() {
         ("accoupled.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,0.01\n3e-6,0.5,-0.01\n", "`vout` averages 0.000 V where duty·vin averages 6.000 V"),
         // The output in millivolts under a bare `vout` header.
         ("millivolts.csv", "# U = 12\n# io = 1\ntime,duty,vout\n0,0.5,5900\n3e-6,0.5,5910\n", "above the 12.000 V `vin` averages"),
+        // The load current in milliamps under a bare `io` header (RL the thesis's 100 mΩ).
+        ("milliamps.csv", "# U = 12\ntime,duty,io,vout\n0,0.5,1000,5.9\n3e-6,0.5,1000,5.9\n", "`io` averages 1.000 kA where the input could drive 120.0 A"),
     ];
     for (name, text, needle) in cases {
         let path = dir.path().join(name);
