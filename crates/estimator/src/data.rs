@@ -130,12 +130,9 @@ impl DataSet {
     /// operating point or a column in millivolts does not, and fitting the first once named a
     /// 626 mΩ load ESR with Cl on its 1 F bound.
     pub fn check_output_level(&self) -> Result<(), EstimatorError> {
-        let mean = |x: &mut dyn Iterator<Item = f64>| {
-            let (sum, n) = x.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-            sum / n.max(1) as f64
-        };
-        let vout = mean(&mut self.vout.iter().copied());
-        let called_for = mean(&mut self.duty.iter().zip(&self.vin).map(|(d, v)| d * v));
+        let rows = self.len().max(1) as f64;
+        let vout = self.vout.iter().sum::<f64>() / rows;
+        let called_for = self.duty.iter().zip(&self.vin).map(|(d, v)| d * v).sum::<f64>() / rows;
         if called_for > 0.0 && vout < MIN_OUTPUT_SHARE * called_for {
             // (A mean that rounds to zero is printed as one, not as -0.000.)
             let vout = if vout.abs() < 5e-4 { 0.0 } else { vout };
@@ -143,7 +140,7 @@ impl DataSet {
                 "`vout` averages {vout:.3} V where duty·vin averages {called_for:.3} V, and a buck's output is near that: an AC-coupled or zeroed channel, or another unit? The contract's `vout` is the output voltage, DC-coupled, in volts"
             )));
         }
-        let vin = mean(&mut self.vin.iter().copied());
+        let vin = self.vin.iter().sum::<f64>() / rows;
         if vin > 0.0 && vout > MAX_OUTPUT_SHARE * vin {
             return Err(data_err(format!("`vout` averages {vout:.4e} V, above the {vin:.3} V `vin` averages, and a buck steps down: millivolts, or another unit? The contract's `vout` is in volts")));
         }

@@ -119,15 +119,12 @@ impl ClMove {
         if let Some(k) = self.misses_by_floors {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
         }
-        if let Some(misfit) = self.current_misfit.as_ref().filter(|m| !m.contradicts()) {
-            test += &format!("; {}", misfit.slip());
-        } else if let Some(misfit) = &self.current_misfit {
+        match &self.current_misfit {
+            Some(misfit) if !misfit.contradicts() => test += &format!("; {}", misfit.slip()),
             // A second reason joins the first rather than saying "not identified" again.
-            if self.misses_by_floors.is_some() {
-                test += &format!("; and {}", misfit.reason());
-            } else {
-                test += &format!("; {misfit}");
-            }
+            Some(misfit) if self.misses_by_floors.is_some() => test += &format!("; and {}", misfit.reason()),
+            Some(misfit) => test += &format!("; {misfit}"),
+            None => {}
         }
         if let Some(fidelity) = held_to {
             test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * fidelity);

@@ -24,7 +24,9 @@ use estimator::simulated::{Criterion, fit_from_exactly};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, ClCheck, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, residual, rms, variance};
+use crate::effect::{
+    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, residual, rms, variance,
+};
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
 /// materially, the joint refit is tried ([`crate::joint`]).
@@ -203,8 +205,10 @@ impl Stack {
         for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
             out.push(self.freeing("param_drift", f, &DRIFT_STARTS.map(|k| k * f.get(nominal)), f.get(p) * (1.0 + PROBE_DRIFT)));
         }
+        // A step on top offers the duty's latencies only: a one-row slip of the readings moves
+        // the whole record, and the first step names it or nothing does.
         if self.delay == 0 {
-            for n in 1..=2 {
+            for n in DELAYS.into_iter().filter(|&n| n > 0) {
                 let s = Stack { delay: n, ..self.clone() };
                 out.push(Extension { name: "delay", stack: s, starts: vec![self.params], probe: self.params, extra: 1, not_nested: true });
             }
