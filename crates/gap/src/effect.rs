@@ -8,6 +8,7 @@ use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
+use estimator::simulated::MAX_SAMPLE_DELAY;
 use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
@@ -747,10 +748,11 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
     // A tenth and four tenths of C's ESR (10 and 40 mΩ beside the thesis's 100 mΩ).
     SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 0.1)], also_from: &[0.4], dcm: false },
     SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[0.3e-9], dcm: false },
-    // Not in the design table: data acquired a little after each period start (an ADC that
-    // samples late reads vout partway along the ripple, which mimics a different Cl); 1/60, 1/15
-    // and 1/5 of the period (50, 200 and 600 ns at 330 kHz).
-    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 15.0, 1.0 / 5.0], dcm: false },
+    // Not in the design table: data acquired after each period start (an ADC that samples late
+    // reads vout partway along the ripple, which mimics a different Cl); 1/60, 1/15 and 1/5 of
+    // the period (50, 200 and 600 ns at 330 kHz), and past the middle of the period, where a
+    // controller reading clear of the edges samples, 1/2 and 3/4.
+    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 15.0, 1.0 / 5.0, 1.0 / 2.0, 3.0 / 4.0], dcm: false },
     // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
     // zero error and a divider's or an attenuator's gain error (linear in the reading: one
     // start each, a small step away from zero so the screen sees its direction).
@@ -962,7 +964,9 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let within_tolerance = t.drift.is_some_and(|d| d.abs() <= baseline.tolerance);
     let cl_on = |c: &Candidate| c.fit.estimate("Cl").is_some_and(|e| cl_on_bound(e.value, [e.ci95.0, e.ci95.1]));
     let cl_on_bound = cl_on(&t.cand);
-    let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v)) || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT);
+    let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
+        || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
+        || t.params.get(Free::SampleDelay.name()).is_some_and(|&v| v >= MAX_SAMPLE_DELAY * t.cand.fit.params.period() * (1.0 - AT_BOUND));
     let fit = EffectFit {
         name,
         params: t.params,

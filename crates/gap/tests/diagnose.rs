@@ -506,6 +506,24 @@ fn late_sampling_is_sample_delay() {
     assert!((dx.gap_before.cl / cl - 1.0).abs() > 0.05, "nominal Cl {:e}", dx.gap_before.cl);
 }
 
+/// A controller that samples clear of the switching edges reads in the middle of the off-time:
+/// here 0.8 of the period, past either duty's falling edge (0.4 and 0.6 of it). The instant is
+/// found within 1 % and Cl lands in its interval. With the instant capped at half the period,
+/// this data was not named `sample_delay`.
+#[test]
+fn a_reading_in_the_off_time_is_sample_delay() {
+    let cl = 4.7e-6;
+    let late = 80;
+    let d = read_late(Params { cl, ..Params::default() }, late);
+    let dx = diagnose_switched(&d);
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
+    let delay = dx.selected[0].params["sample_delay"];
+    let truth = late as f64 / 100.0 / Params::default().fs;
+    assert!((delay / truth - 1.0).abs() < 0.01, "sample delay {delay:e} vs {truth:e}");
+    assert_final_cl_holds(&dx, cl);
+}
+
 /// A late acquisition (150 ns) and a 20 mΩ resistance in series with Cl = 2.2 µF move the
 /// sampled vout alike (a delay τ reads like an ESR of τ/Cl ≈ 68 mΩ), but only the delay moves
 /// il: with the instant pinned by il, both are selected, the ESR and Cl land in their intervals.
