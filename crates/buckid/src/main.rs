@@ -7,6 +7,7 @@
 mod convert;
 mod diagnose;
 mod identify;
+mod isolate;
 mod nominal_fmu;
 mod report;
 mod simulate;
@@ -226,6 +227,16 @@ fn message(e: &anyhow::Error) -> String {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    // A command that loads an FMU runs in a child process (see `isolate`).
+    let fmu = match &cli.command {
+        Command::Identify(args) => args.fmu.as_deref(),
+        Command::Diagnose(args) => args.fmu.as_deref(),
+        Command::Simulate(args) => Some(args.fmu()),
+        Command::Convert(_) => None,
+    };
+    if let Some(code) = fmu.and_then(isolate::supervise) {
+        return code;
+    }
     let result = match cli.command {
         Command::Identify(args) => identify::run(&args),
         Command::Diagnose(args) if args.sweep.is_some() => sweep::run(&args),

@@ -41,6 +41,13 @@ pub struct SimulateArgs {
     out: Option<PathBuf>,
 }
 
+impl SimulateArgs {
+    /// The FMU it runs.
+    pub fn fmu(&self) -> &Path {
+        &self.fmu
+    }
+}
+
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
     if !args.fmu.exists() {
