@@ -334,22 +334,49 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         None => (Vec::new(), baseline.nothing_found()),
     };
     // The other topology, where the path from the first step still misses materially and the
-    // other topology's best first step came close (see `select::topology_rival`).
+    // other topology's best first step came close, or the instant within the period where the
+    // first step read a row late (see `select::rival`).
     let rms_left = selected.last().map(|e| e.rms_after);
-    if let (Some(first), Some(rms_left)) = (first.filter(|_| late_in_il.is_none() && ripple.is_none()), rms_left)
+    let first = first.filter(|_| late_in_il.is_none() && ripple.is_none());
+    let mut tried: Vec<&str> = first.map(|f| vec![f.name]).unwrap_or_default();
+    // The first step of the path taken.
+    let mut from = first.map_or("", |f| f.name);
+    if let (Some(first), Some(rms_left)) = (first, rms_left)
         && baseline.misses_materially(rms_left) == Some(true)
-        && let Some(rival) = select::topology_rival(&effects, first)
+        && let Some((rival, kind)) = select::rival(&effects, first)
     {
+        tried.push(rival.name);
         let (other, other_ended) = path(rival);
         let closes = other.last().and_then(|e| baseline.closed_of_material_gap(rms_left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
         let note = match closes {
-            Some(c) => format!("; the path from {} (the other topology) closes {c:.1} % of the gap this one left ({:.2} mV held out): taken instead", rival.name, rms_left * 1e3),
-            None => format!("; the path from {} (the other topology) closes no material share of the gap this one left", rival.name),
+            Some(c) => format!("; the path from {} ({kind}) closes {c:.1} % of the gap this one left ({:.2} mV held out): taken instead", rival.name, rms_left * 1e3),
+            None => format!("; the path from {} ({kind}) closes no material share of the gap this one left", rival.name),
         };
         if closes.is_some() {
             (selected, selection_ended) = (other, format!("{other_ended} (from {}, after the path from {}: {selection_ended})", rival.name, first.name));
+            from = rival.name;
         }
         selection_ended += &note;
+    }
+    // A path stuck far above the floor (see `select::STUCK_FLOORS`): the paths from the next
+    // findings of the first step, one at a time while the best so far is still stuck.
+    if let (Some(_), Some(floor)) = (first, baseline.floor) {
+        for other_first in select::alternatives(&effects, &tried) {
+            let Some(rms_left) = selected.last().map(|e| e.rms_after).filter(|r| *r > select::STUCK_FLOORS * floor) else { break };
+            if selected.len() >= select::MAX_EFFECTS {
+                break;
+            }
+            let (other, other_ended) = path(other_first);
+            let closes = other.last().and_then(|e| baseline.closed_of_material_gap(rms_left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
+            selection_ended = match closes {
+                Some(c) => {
+                    let before = format!("the path from {from} stopped {:.1} floors above the noise: {selection_ended}", rms_left / floor);
+                    (selected, from) = (other, other_first.name);
+                    format!("{other_ended} (from {}, closing {c:.1} % of the gap left where {before})", other_first.name)
+                }
+                None => format!("{selection_ended}; the path from {} closes no material share of the gap left", other_first.name),
+            };
+        }
     }
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.

@@ -524,6 +524,23 @@ fn a_reading_in_the_off_time_is_sample_delay() {
     assert_final_cl_holds(&dx, cl);
 }
 
+/// Dead time, the switches' resistance, the node's charge and an ADC at 0.75 of the period, on
+/// this simulator's own converter: the instant within 1 % beside the dead time, and Cl in its
+/// interval. (On ngspice's circuits the first step takes a stand-in here, and the paths from
+/// the other first steps find the instant: `tests/python/test_probes.py`.)
+#[test]
+fn a_reading_in_the_off_time_is_found_behind_a_dead_time() {
+    let cl = 10e-6;
+    let d = read_late(Params { cl, dead_time: 30e-9, switch_resistance: 10e-3, switch_node_capacitance: 800e-12, ..Params::default() }, 75);
+    let dx = diagnose_switched(&d);
+    let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
+    assert!(names.contains(&"dead_time") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
+    let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap();
+    let truth = 0.75 / Params::default().fs;
+    assert!((late.params["sample_delay"] / truth - 1.0).abs() < 0.01, "sample delay {:e} vs {truth:e}", late.params["sample_delay"]);
+    assert_final_cl_holds(&dx, cl);
+}
+
 /// A late acquisition (150 ns) and a 20 mΩ resistance in series with Cl = 2.2 µF move the
 /// sampled vout alike (a delay τ reads like an ESR of τ/Cl ≈ 68 mΩ), but only the delay moves
 /// il: with the instant pinned by il, both are selected, the ESR and Cl land in their intervals.
