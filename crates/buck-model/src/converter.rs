@@ -933,8 +933,18 @@ impl Converter {
             Some(i) => i,
             None => {
                 let lti = self.lti(circuit);
-                let entry = (circuit, Ladder::new(pad(&lti.a), pad(&lti.b), self.params.period()));
-                store(&mut self.ladders, &mut self.next_ladder, LADDER_SLOTS, entry)
+                let (a, b, top) = (pad(&lti.a), pad(&lti.b), self.params.period());
+                if self.ladders.len() < LADDER_SLOTS {
+                    self.ladders.push((circuit, Ladder::new(a, b, top)));
+                    self.ladders.len() - 1
+                } else {
+                    // The oldest slot, rebuilt in place.
+                    let i = self.next_ladder;
+                    self.next_ladder = (i + 1) % LADDER_SLOTS;
+                    self.ladders[i].0 = circuit;
+                    self.ladders[i].1.rebuild(a, b, top);
+                    i
+                }
             }
         };
         self.ladders[i].1.grow(length);

@@ -185,6 +185,14 @@ pub(crate) struct Ladder {
 impl Ladder {
     /// The ladder of `dx/dt = A·x + B·u` below `top` (the switching period).
     pub fn new(a: Mat, b: Inp, top: f64) -> Self {
+        let mut ladder = Self { a, b, rungs: Vec::new(), phi: Phi { h: 0.0, f: Mat::zeros(), g1: Mat::zeros(), g2: Mat::zeros() }, top, terms: 0 };
+        ladder.rebuild(a, b, top);
+        ladder
+    }
+
+    /// This ladder made the one of `dx/dt = A·x + B·u` below `top`, in the memory it holds (a
+    /// circuit that changes every period builds one each period).
+    pub fn rebuild(&mut self, a: Mat, b: Inp, top: f64) {
         let depth = halvings(&a, top, THETA);
         let shortest = top * 0.5f64.powi(depth);
         // The first term left out is ‖d₁‖·s·νⁿ/(n+1)! with ν = ‖A·s‖₁.
@@ -195,9 +203,10 @@ impl Ladder {
             terms += 1;
         }
         let phi = Phi::taylor(&a, shortest);
-        let mut rungs = Vec::with_capacity(depth as usize + 1);
-        rungs.push(phi.transition(&b));
-        Self { a, b, rungs, phi, top, terms }
+        self.rungs.clear();
+        self.rungs.reserve(depth as usize + 1);
+        self.rungs.push(phi.transition(&b));
+        (self.a, self.b, self.phi, self.top, self.terms) = (a, b, phi, top, terms);
     }
 
     /// Builds the rungs up to the longest not beyond `length` (nor `T`): all a piece of that
