@@ -70,12 +70,13 @@ fn misbehaving_fmus_are_reported_by_function_and_exit_non_zero() {
 fn a_segfaulting_fmu_is_reported_not_fatal() {
     let tmp = tempfile::tempdir().unwrap();
     let fmu = build(tmp.path(), Some("SEGFAULT_DOSTEP"));
-    for out in [identify(&fmu), Command::new(env!("CARGO_BIN_EXE_buckid")).args(["simulate", "--fmu"]).arg(&fmu).output().expect("run buckid")] {
+    let identified = identify(&fmu);
+    // What the run printed before the fault is kept.
+    assert!(String::from_utf8_lossy(&identified.stderr).contains("running"));
+    for out in [identified, Command::new(env!("CARGO_BIN_EXE_buckid")).args(["simulate", "--fmu"]).arg(&fmu).output().expect("run buckid")] {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{}: {stderr}", out.status);
         let needle = format!("error: the run of the FMU {} was ended by signal 11 (SIGSEGV: an invalid memory access)", fmu.display());
         assert!(stderr.contains(&needle), "{stderr}");
     }
-    // What the run printed before the fault is kept.
-    assert!(String::from_utf8_lossy(&identify(&fmu).stderr).contains("running"));
 }

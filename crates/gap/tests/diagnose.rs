@@ -485,6 +485,13 @@ fn read_late(p: Params, late: usize) -> DataSet {
     d
 }
 
+/// The selected late reading's instant is within `tolerance` (relative) of `truth` [s].
+fn assert_instant(dx: &gap::Diagnosis, truth: f64, tolerance: f64) {
+    let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap_or_else(|| panic!("no sample_delay: {}", dx.selection_ended));
+    let delay = late.params["sample_delay"];
+    assert!((delay / truth - 1.0).abs() < tolerance, "sample delay {delay:e} vs {truth:e}");
+}
+
 /// Data acquired 30 substeps of 100 (0.91 µs) after each period start: the late sample reads
 /// vout partway along the ripple, which the nominal model can only follow with a wrong Cl.
 /// `sample_delay` is found at the instant and Cl lands in its interval.
@@ -498,9 +505,7 @@ fn late_sampling_is_sample_delay() {
     let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
-    let delay = dx.selected[0].params["sample_delay"];
-    let truth = late as f64 * period / substeps as f64;
-    assert!((delay / truth - 1.0).abs() < 0.03, "sample delay {delay:e} vs {truth:e}");
+    assert_instant(&dx, late as f64 * period / substeps as f64, 0.03);
     assert_final_cl_holds(&dx, cl);
     // The nominal fit alone misses Cl by far more than its interval.
     assert!((dx.gap_before.cl / cl - 1.0).abs() > 0.05, "nominal Cl {:e}", dx.gap_before.cl);
@@ -518,9 +523,7 @@ fn a_reading_in_the_off_time_is_sample_delay() {
     let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["sample_delay"], "{}", dx.selection_ended);
-    let delay = dx.selected[0].params["sample_delay"];
-    let truth = late as f64 / 100.0 / Params::default().fs;
-    assert!((delay / truth - 1.0).abs() < 0.01, "sample delay {delay:e} vs {truth:e}");
+    assert_instant(&dx, late as f64 / 100.0 / Params::default().fs, 0.01);
     assert_final_cl_holds(&dx, cl);
 }
 
@@ -535,9 +538,7 @@ fn a_reading_in_the_off_time_is_found_behind_a_dead_time() {
     let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert!(names.contains(&"dead_time") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
-    let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap();
-    let truth = 0.75 / Params::default().fs;
-    assert!((late.params["sample_delay"] / truth - 1.0).abs() < 0.01, "sample delay {:e} vs {truth:e}", late.params["sample_delay"]);
+    assert_instant(&dx, 0.75 / Params::default().fs, 0.01);
     assert_final_cl_holds(&dx, cl);
 }
 
@@ -567,9 +568,7 @@ fn a_late_reading_is_found_behind_a_series_resistance() {
     let dx = diagnose_switched(&d);
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert!(names.contains(&"switch_resistance") && names.contains(&"sample_delay"), "{names:?}: {}", dx.selection_ended);
-    let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap();
-    let truth = 0.01 / Params::default().fs;
-    assert!((late.params["sample_delay"] / truth - 1.0).abs() < 0.1, "sample delay {:e} vs {truth:e}", late.params["sample_delay"]);
+    assert_instant(&dx, 0.01 / Params::default().fs, 0.1);
     assert_final_cl_holds(&dx, cl);
 }
 
