@@ -337,6 +337,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // other topology's best first step came close, or the instant within the period where the
     // first step read a row late (see `select::rival`).
     let rms_left = selected.last().map(|e| e.rms_after);
+    // The material share of the gap a path left (`left`, held-out RMS) that another path closes.
+    let closes_of_left = |other: &[EffectFit], left: f64| other.last().and_then(|e| baseline.closed_of_material_gap(left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
     let first = first.filter(|_| late_in_il.is_none() && ripple.is_none());
     let mut tried: Vec<&str> = first.map(|f| vec![f.name]).unwrap_or_default();
     // The first step of the path taken.
@@ -347,7 +349,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     {
         tried.push(rival.name);
         let (other, other_ended) = path(rival);
-        let closes = other.last().and_then(|e| baseline.closed_of_material_gap(rms_left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
+        let closes = closes_of_left(&other, rms_left);
         let note = match closes {
             Some(c) => format!("; the path from {} ({kind}) closes {c:.1} % of the gap this one left ({:.2} mV held out): taken instead", rival.name, rms_left * 1e3),
             None => format!("; the path from {} ({kind}) closes no material share of the gap this one left", rival.name),
@@ -367,7 +369,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
                 break;
             }
             let (other, other_ended) = path(other_first);
-            let closes = other.last().and_then(|e| baseline.closed_of_material_gap(rms_left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
+            let closes = closes_of_left(&other, rms_left);
             selection_ended = match closes {
                 Some(c) => {
                     let before = format!("the path from {from} stopped {:.1} floors above the noise: {selection_ended}", rms_left / floor);
