@@ -92,6 +92,13 @@ pub struct Params {
     /// acquisition or ADC that reads a little late). Not a circuit value and not an FMU
     /// parameter: the estimator's plant simulator reads `vout` there (`sample_delay` effect).
     pub sample_delay: f64,
+    /// How far the sampling instant moves with the duty, as a share of the on-time's change:
+    /// the outputs are sampled `sample_delay + sample_duty_share·(D − ½)·T` after the period
+    /// start (`sample_delay` is then the instant at half duty), an ADC triggered from the PWM
+    /// rather than from the period. ½ with `sample_delay` = T/4: the middle of the on-time; ½
+    /// with 3T/4: the middle of the off-time (where controllers read the average inductor
+    /// current clear of the edges). 0 (the default): a fixed instant. Not an FMU parameter.
+    pub sample_duty_share: f64,
     /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
     /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like
     /// `sample_delay`.
@@ -180,6 +187,7 @@ impl Default for Params {
             cap_bias_law: BiasLaw::Quadratic,
             rload: 0.0,
             sample_delay: 0.0,
+            sample_duty_share: 0.0,
             vout_offset: 0.0,
             vout_gain_error: 0.0,
             il_offset: 0.0,

@@ -198,8 +198,8 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
 
 /// Runs the switched converter with circuit values `p` period by period on `data`'s duty, `io`
 /// and `vin`, from `start` (a voltage: both capacitors at it, the DC point's current), calling
-/// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it) with
-/// the inductor current at the period's start. Returns the converter at the end of the record.
+/// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it, moved
+/// with the duty by `p.sample_duty_share`) with the inductor current at the period's start. Returns the converter at the end of the record.
 fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64)) -> Result<Converter, EstimatorError> {
     let Start { v0, dil } = start.into();
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
@@ -222,12 +222,16 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
     let s0 = conv.state();
     let il0 = s0.il + (v0 - s0.vo) * conv.params().load_conductance();
     conv.set_state(State { il: il0 + dil, vc: v0, vo: v0, ic: 0.0 });
-    let late = p.sample_delay;
-    if !(0.0..MAX_SAMPLE_DELAY * period).contains(&late) {
-        return Err(EstimatorError::Config(format!("sample_delay {late:e} s must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
+    // The instant of each period's reading: fixed, or moving with its duty (an ADC triggered
+    // from the PWM).
+    let instant = |k: usize| p.sample_delay + p.sample_duty_share * (data.duty[k] - 0.5) * period;
+    if let Some(late) = (0..data.len()).map(instant).find(|late| !(0.0..MAX_SAMPLE_DELAY * period).contains(late)) {
+        let lock = if p.sample_duty_share == 0.0 { String::new() } else { format!(" (sample_delay {:e} s plus {}·(D − ½)·T)", p.sample_delay, p.sample_duty_share) };
+        return Err(EstimatorError::Config(format!("a sampling instant {late:e} s{lock} must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
     for k in 0..data.len() {
         let il_at_start = conv.state().il;
+        let late = instant(k);
         if late > 0.0 {
             // The duty is latched at the period start; the reading comes `late` into it.
             set_inputs(&mut conv, k)?;
@@ -390,10 +394,11 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     if n_est < BURN_IN + 50 || n_est >= data.len() {
         return Err(EstimatorError::Data(format!("the simulated model needs ≥ {} estimation samples and some held out ({n_est} of {})", BURN_IN + 50, data.len())));
     }
-    // The unknowns `[ln θ | start]` of each start; the initial voltage starts at the first
-    // measured sample, the rest at the DC point.
-    let mut tries: Vec<Vec<f64>> = starts.iter().map(|s| free.iter().map(|f| f.to_unknown(f.get(s))).chain(Start::from(data.vout[0]).unknowns()).collect()).collect();
-    if tries.iter().flatten().any(|l| !l.is_finite()) {
+    // The unknowns `[ln θ | start]` of each start, with the start's other values (a start may
+    // hold what is not free differently: a reading's lock to the PWM); the initial voltage
+    // starts at the first measured sample, the rest at the DC point.
+    let mut tries: Vec<(&Params, Vec<f64>)> = starts.iter().map(|s| (s, free.iter().map(|f| f.to_unknown(f.get(s))).chain(Start::from(data.vout[0]).unknowns()).collect())).collect();
+    if tries.iter().flat_map(|(_, u)| u).any(|l| !l.is_finite()) {
         return Err(EstimatorError::Config("start values of free parameters must be positive".into()));
     }
     let clock = std::time::Instant::now();
@@ -405,11 +410,11 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     if let (Some(ci), true) = (free.iter().position(|f| *f == Free::Cl), cl_grid) {
         tries = tries
             .into_iter()
-            .flat_map(|t| {
+            .flat_map(|(s, t)| {
                 std::iter::once(t[ci]).chain(CL_GRID.iter().map(|k| (k * start.c).ln())).map(move |l| {
                     let mut u = t.clone();
                     u[ci] = l;
-                    u
+                    (s, u)
                 })
             })
             .collect();
@@ -421,13 +426,13 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     // instant is pinned (vout alone can prefer a start whose instant il rules out, from which a
     // fit on the log scale slides toward zero and stays).
     let weight = pinned.filter(|_| criterion == Criterion::OutputError).map(|(_, w)| w);
-    let cost_at = |u: &Vec<f64>| residuals(start, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
+    let cost_at = |(s, u): &(&Params, Vec<f64>)| residuals(s, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
     if tries.len() > 1 {
-        let mut ranked: Vec<(f64, Vec<f64>)> = tries.into_par_iter().map(|u| (cost_at(&u), u)).collect();
+        let mut ranked: Vec<(f64, (&Params, Vec<f64>))> = tries.into_par_iter().map(|t| (cost_at(&t), t)).collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-        tries = ranked.into_iter().map(|(_, u)| u).collect();
+        tries = ranked.into_iter().map(|(_, t)| t).collect();
     }
-    let logs = tries.first().cloned().unwrap_or_default();
+    let (start, logs) = tries.first().cloned().unwrap_or((start, Vec::new()));
     let (start, free_rest, logs, delay) = match pinned {
         Some((i, weight)) => {
             // The high-pass refit tests the rest of a model whose instant the output-error fit
@@ -448,10 +453,10 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
                 let joint_at: Vec<usize> = (0..free.len()).filter(|&k| free[k] != Free::VoutOffset).collect();
                 let joint_free: Vec<Free> = joint_at.iter().map(|&k| free[k]).collect();
                 let joint_logs = |u: &Vec<f64>| -> Vec<f64> { joint_at.iter().map(|&k| u[k]).chain(u[free.len()..].iter().copied()).collect() };
-                let (joint, mut logs) = tries
+                let (joint, (start, mut logs)) = tries
                     .par_iter()
                     .take(PINNED_STARTS)
-                    .filter_map(|u| minimize(start, &joint_free, joint_logs(u), &estimation, criterion, Some(weight)).ok().map(|m| (m, u.clone())))
+                    .filter_map(|(s, u)| minimize(s, &joint_free, joint_logs(u), &estimation, criterion, Some(weight)).ok().map(|m| (m, (*s, u.clone()))))
                     .min_by(|a, b| a.0.cost.total_cmp(&b.0.cost))
                     .ok_or_else(|| EstimatorError::Fit("the simulation fails at every start of the sampling instant".into()))?;
                 let (_, cov) = noise_and_covariance(&joint, criterion)?;

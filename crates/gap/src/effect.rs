@@ -445,6 +445,8 @@ pub(crate) struct Baseline {
     pub swing: f64,
     /// Relative tolerance of the nominal circuit values (a drift within it is no finding).
     pub tolerance: f64,
+    /// The largest duty of the record (where a reading locked to the PWM comes latest).
+    pub max_duty: f64,
 }
 
 /// Gap power below which (as a fraction of the floor's) the gap is within the floor's own
@@ -599,6 +601,7 @@ impl Baseline {
             held_out: data.len() - n_est,
             swing: swing(&data.vout[n_est.min(data.len())..]),
             tolerance,
+            max_duty: data.duty.iter().copied().fold(0.0, f64::max),
         }
     }
 
@@ -739,25 +742,33 @@ pub(crate) const DELAYS: [isize; 3] = [-1, 1, 2];
 pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
     // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
     // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
-    SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], dcm: false },
-    SimulatedEffect { name: "dcm", extra: &[], also_from: &[], dcm: true },
+    SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], also_locked: &[], dcm: false },
+    SimulatedEffect { name: "dcm", extra: &[], also_from: &[], also_locked: &[], dcm: true },
     // A dead time of 0.7 % and 2 % of the period (20 and 60 ns at 330 kHz).
-    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 1.0 / 150.0)], also_from: &[1.0 / 50.0], dcm: false },
-    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[0.4], dcm: false },
-    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[0.15], dcm: false },
+    SimulatedEffect { name: "dead_time", extra: &[(Free::DeadTime, 1.0 / 150.0)], also_from: &[1.0 / 50.0], also_locked: &[], dcm: false },
+    SimulatedEffect { name: "inductor_saturation", extra: &[(Free::InductorSaturation, 0.2), (Free::Isat, f64::NAN)], also_from: &[0.4], also_locked: &[], dcm: false },
+    SimulatedEffect { name: "cap_dc_bias", extra: &[(Free::CapDcBias, 0.4)], also_from: &[0.15], also_locked: &[], dcm: false },
     // A tenth and four tenths of C's ESR (10 and 40 mΩ beside the thesis's 100 mΩ).
-    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 0.1)], also_from: &[0.4], dcm: false },
-    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[0.3e-9], dcm: false },
+    SimulatedEffect { name: "load_esr", extra: &[(Free::LoadEsr, 0.1)], also_from: &[0.4], also_locked: &[], dcm: false },
+    SimulatedEffect { name: "esl", extra: &[(Free::Esl, 1e-9)], also_from: &[0.3e-9], also_locked: &[], dcm: false },
     // Not in the design table: data acquired after each period start (an ADC that samples late
     // reads vout partway along the ripple, which mimics a different Cl); 1/60, 1/15 and 1/5 of
     // the period (50, 200 and 600 ns at 330 kHz), and past the middle of the period, where a
     // controller reading clear of the edges samples, 1/2 and 3/4.
-    SimulatedEffect { name: "sample_delay", extra: &[(Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 15.0, 1.0 / 5.0, 1.0 / 2.0, 3.0 / 4.0], dcm: false },
+    // And a reading locked to the PWM (the instant at half duty, moving by half the on-time's
+    // change): the middle of the on-time and the middle of the off-time.
+    SimulatedEffect {
+        name: "sample_delay",
+        extra: &[(Free::SampleDelay, 1.0 / 60.0)],
+        also_from: &[1.0 / 15.0, 1.0 / 5.0, 1.0 / 2.0, 3.0 / 4.0],
+        also_locked: &[(1.0 / 4.0, 0.5), (3.0 / 4.0, 0.5)],
+        dcm: false,
+    },
     // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
     // zero error and a divider's or an attenuator's gain error (linear in the reading: one
     // start each, a small step away from zero so the screen sees its direction).
-    SimulatedEffect { name: "sensor_offset", extra: &[(Free::VoutOffset, 1e-3)], also_from: &[], dcm: false },
-    SimulatedEffect { name: "sensor_gain", extra: &[(Free::VoutGainError, 1e-3)], also_from: &[], dcm: false },
+    SimulatedEffect { name: "sensor_offset", extra: &[(Free::VoutOffset, 1e-3)], also_from: &[], also_locked: &[], dcm: false },
+    SimulatedEffect { name: "sensor_gain", extra: &[(Free::VoutGainError, 1e-3)], also_from: &[], also_locked: &[], dcm: false },
 ];
 
 /// The unit of a start value of `f` in the circuit `p`: the period for a time (a converter at
@@ -779,6 +790,10 @@ pub(crate) struct SimulatedEffect {
     pub extra: &'static [(Free, f64)],
     /// Further start values of the first of them; the fit goes on from the best start.
     pub also_from: &'static [f64],
+    /// Further starts of a reading locked to the PWM (`sample_delay` only): the instant at half
+    /// duty in periods, and the share of the on-time's change it moves by (`sample_duty_share`,
+    /// held).
+    pub also_locked: &'static [(f64, f64)],
     /// The low side is an ideal diode.
     pub dcm: bool,
 }
@@ -803,6 +818,7 @@ impl SimulatedEffect {
                 q
             }));
         }
+        starts.extend(self.also_locked.iter().map(|&(delay, share)| Params { sample_delay: delay * base.period(), sample_duty_share: share, ..p }));
         starts
     }
 
@@ -824,6 +840,10 @@ impl SimulatedEffect {
         let p = &cand.fit.params;
         if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) && (p.il_offset != 0.0 || p.il_gain_error != 0.0) {
             params.extend(il_calibration(&cand.fit.params));
+        }
+        // A reading locked to the PWM is reported with its lock (held, like the scheme it is).
+        if p.sample_duty_share != 0.0 {
+            params.insert("sample_duty_share".to_string(), p.sample_duty_share);
         }
         // A bias law is read against the voltages it was fitted for (see `bias_reference`).
         if self.extra.iter().any(|&(f, _)| f == Free::CapDcBias) {
@@ -939,6 +959,11 @@ impl std::fmt::Display for ClCheck {
     }
 }
 
+/// The latest instant a reading comes at in the circuit `p` at duties up to `max_duty` [s].
+fn latest_instant(p: &Params, max_duty: f64) -> f64 {
+    p.sample_delay + (p.sample_duty_share * (max_duty - 0.5)).max(0.0) * p.period()
+}
+
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
 /// otherwise, and better on the held-out data), materiality against the gap `against` leaves
 /// above the floor, the tolerance of a drift; shrink, gap closed and Cl movement against the
@@ -966,7 +991,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let cl_on_bound = cl_on(&t.cand);
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
-        || t.params.get(Free::SampleDelay.name()).is_some_and(|&v| v >= MAX_SAMPLE_DELAY * t.cand.fit.params.period() * (1.0 - AT_BOUND));
+        || t.params.get(Free::SampleDelay.name()).is_some_and(|_| latest_instant(&t.cand.fit.params, baseline.max_duty) >= MAX_SAMPLE_DELAY * t.cand.fit.params.period() * (1.0 - AT_BOUND));
     let fit = EffectFit {
         name,
         params: t.params,
@@ -1019,7 +1044,7 @@ mod tests {
     /// against the better fit itself, nothing changes.
     #[test]
     fn a_fit_worse_than_the_better_nominal_is_never_material() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01 };
+        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, max_duty: 0.6 };
         let fit = |rms_after: f64, against: f64| EffectFit {
             name: "dcm",
             params: BTreeMap::new(),
@@ -1070,7 +1095,7 @@ mod tests {
     /// material on 1 V; within the floor nothing is.
     #[test]
     fn a_gap_is_material_above_the_floor_and_the_swing() {
-        let on = |floor: f64, swing: f64| Baseline { nrmse: 1.0, rms: 1.0, cl: 1e-6, floor: Some(floor), floor_samples: 2000, held_out: 1000, swing, tolerance: 0.01 };
+        let on = |floor: f64, swing: f64| Baseline { nrmse: 1.0, rms: 1.0, cl: 1e-6, floor: Some(floor), floor_samples: 2000, held_out: 1000, swing, tolerance: 0.01, max_duty: 0.6 };
         assert_eq!(on(0.2e-3, 1.0).misses_materially(0.36e-3), Some(false));
         assert_eq!(on(0.2e-3, 0.4).misses_materially(0.36e-3), Some(true));
         assert_eq!(on(2e-3, 1.0).misses_materially(3.6e-3), Some(true));

@@ -76,7 +76,7 @@ fn candidate_start(name: &str, f: Free, base: &Params) -> Option<f64> {
 }
 
 /// The model without `g`: its parameters free no more, at their nominal values (a late
-/// reading's calibration of il with it).
+/// reading's calibration of il and its lock to the PWM with it).
 fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     let mut s = stack.clone();
     s.free.retain(|f| !g.frees.contains(f));
@@ -84,7 +84,7 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
         f.set(&mut s.params, f.get(nominal));
     }
     if g.frees.contains(&Free::SampleDelay) {
-        (s.params.il_offset, s.params.il_gain_error) = (nominal.il_offset, nominal.il_gain_error);
+        (s.params.il_offset, s.params.il_gain_error, s.params.sample_duty_share) = (nominal.il_offset, nominal.il_gain_error, nominal.sample_duty_share);
     }
     // The effects that free no value change the structure: a duty applied late, an ideal diode.
     match g.name {

@@ -136,6 +136,9 @@ impl Stack {
                 if let (Some(&offset), Some(&gain)) = (e.params.get("il_offset"), e.params.get("il_gain_error")) {
                     (self.params.il_offset, self.params.il_gain_error) = (offset, gain);
                 }
+                if let Some(&share) = e.params.get("sample_duty_share") {
+                    self.params.sample_duty_share = share;
+                }
             }
         }
         self.effects.push(e.name);
