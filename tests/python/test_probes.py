@@ -110,6 +110,21 @@ def test_a_reading_in_the_off_time_behind_a_dead_time_is_found_and_cl_holds(buck
     assert final["ci95"][0] <= CL <= final["ci95"][1], final
 
 
+@needs_ngspice
+def test_a_reading_locked_to_the_pwm_of_a_harness_capture_is_found_and_cl_holds(buckid_bin, tmp_path):
+    """The harness's sync buck with its ADC triggered in the middle of each on-time (`--adc-delay
+    0 --adc-share 0.5`, the instant D*T/2): the lock is found (`sample_duty_share` 1/2, the
+    instant at half duty within 2 % of T/4), nothing else is named, and Cl holds. With a fixed
+    instant only it was a 66 mV `sensor_offset`, Cl not identified."""
+    dx = _diagnose(buckid_bin, tmp_path, "mid_on", "--adc-delay", "0", "--adc-share", "0.5")
+    assert [e["name"] for e in dx["selected"]] == ["sample_delay"], dx["selection_ended"]
+    late = dx["selected"][0]["params"]
+    assert late.get("sample_duty_share") == 0.5, late
+    assert abs(late["sample_delay"] * 330e3 / 0.25 - 1) < 0.02, late
+    final = dx["selected"][-1]["cl"]
+    assert final["ci95"][0] <= CL <= final["ci95"][1], final
+
+
 @pytest.fixture(scope="module")
 def own_capture(tmp_path_factory):
     """Our own ngspice sync buck (10 mOhm MOSFETs, 30 ns dead time, Cl 10 uF, 2 A), 3001 PRBS

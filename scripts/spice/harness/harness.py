@@ -12,8 +12,9 @@ fs = 330 kHz, trailing-edge PWM latched per period):
   diodes and a dead time before each turn-on (gate ramps start at the command instants);
 * topology ``async``: a level-1 NMOS high side and a freewheeling diode card of its own;
 * a switch-node capacitance, the ADC sampling ``adc_delay`` after each period start
-  (interpolated from the transient, with a time point forced there), seeded Gaussian
-  measurement noise on vout and il;
+  (interpolated from the transient, with a time point forced there), or triggered from the
+  PWM, a further ``adc_share`` of each period's on-time later (``--adc-delay 0 --adc-share
+  0.5``: the middle of the on-time), seeded Gaussian measurement noise on vout and il;
 * optional: resistor in series with Cl (``load_esr``), inductance in the C branch (``esl``),
   a smoothly saturating inductor (``sat``/``isat``), a load capacitor losing capacitance with
   voltage (``dcbias``/``vrated``), L/C/Rc off nominal (pass the changed value), a resistive
@@ -301,10 +302,11 @@ def transient_retrying(a, duty):
 
 
 def run(a, duty):
-    """(vout, il) sampled ``a.adc_delay`` after each data period's start, noise-free, and vout
-    averaged in time over the data periods (the operating point a biased ceramic sits at)."""
+    """(vout, il) sampled ``a.adc_delay`` (plus ``a.adc_share`` of the on-time) after each data
+    period's start, noise-free, and vout averaged in time over the data periods (the operating
+    point a biased ceramic sits at)."""
     t, vout, il = transient_retrying(a, duty)
-    ts = np.arange(len(duty)) / a.fs + a.adc_delay
+    ts = (np.arange(len(duty)) + a.adc_share * np.asarray(duty)) / a.fs + a.adc_delay
     return np.interp(ts, t, vout), np.interp(ts, t, il), time_mean(t, vout, 0.0, len(duty) / a.fs)
 
 
@@ -352,6 +354,7 @@ def parser():
     add("--dcbias", type=float, default=0.0, help="fraction of Cl lost at the rated voltage")
     add("--vrated", type=float, default=10.0, help="rated voltage of Cl [V]")
     add("--adc-delay", type=float, default=100e-9, help="ADC sample delay after period start [s]")
+    add("--adc-share", type=float, default=0.0, help="ADC triggered from the PWM: each sample a further share of the on-time D*T late")
     add("--noise-vout", type=float, default=2e-3, help="noise sigma on vout [V]")
     add("--noise-il", type=float, default=5e-3, help="noise sigma on il [A]")
     add("--vout-gain", type=float, default=0.0, help="gain error of the vout probe (vout read as (1+g)*vout + offset)")

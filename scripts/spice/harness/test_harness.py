@@ -100,6 +100,17 @@ def test_adc_delay_samples_on_the_rising_ripple():
     assert np.allclose(il1[-10:] - il0[-10:], slope * 300e-9, rtol=0.03)
 
 
+def test_adc_share_samples_a_share_of_the_on_time_later():
+    # Reference: triggered from the PWM at half the on-time, the sample comes D*T/2 later, and il
+    # has risen by the on-time's slope over that.
+    base = ["--topology", "sw", "--io", "2", "--periods", "40", "--noise-vout", "0", "--noise-il", "0", "--adc-delay", "0"]
+    duty = np.full(40, D)
+    _, il0, _ = harness.run(args(*base), duty)
+    _, il1, _ = harness.run(args(*base, "--adc-share", "0.5"), duty)
+    slope = (U - (D * U - 2 * RL)) / L
+    assert np.allclose(il1[-10:] - il0[-10:], slope * D / FS / 2, rtol=0.03)
+
+
 def test_saturated_inductor_ripple_grows_by_one_over_one_minus_s():
     # Reference: well above isat the inductance is L*(1 - s), so the ripple is 1/(1 - s) larger.
     base = ["--topology", "sw", "--io", "3"]
