@@ -191,7 +191,7 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
             }
             // A reading locked to the PWM: `sample_delay` is then its instant at half duty.
             if k == "sample_duty_share" {
-                return format!("sample_duty_share = {v} (an ADC triggered from the PWM: the instant is sample_delay at half duty, moving by {v} of the on-time's change)");
+                return format!("sample_duty_share = {v} (an ADC triggered from the PWM: read sample_delay + {v}·(D − ½)·T after each period start)");
             }
             let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
             format!("{k} = {}", with_ci(v * scale, e.ci95.get(k).map(|c| c.map(|x| x * scale)), unit))

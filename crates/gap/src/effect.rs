@@ -755,13 +755,14 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
     // reads vout partway along the ripple, which mimics a different Cl); 1/60, 1/15 and 1/5 of
     // the period (50, 200 and 600 ns at 330 kHz), and past the middle of the period, where a
     // controller reading clear of the edges samples, 1/2 and 3/4.
-    // And a reading locked to the PWM (the instant at half duty, moving by half the on-time's
-    // change): the middle of the on-time and the middle of the off-time.
+    // And a reading locked to the PWM (the instant at half duty, moving by a share of the
+    // on-time's change): the middle of the on-time and of the off-time (half of it), and a
+    // fixed time from the turn-off edge (all of it: an ADC triggered off that edge).
     SimulatedEffect {
         name: "sample_delay",
         extra: &[(Free::SampleDelay, 1.0 / 60.0)],
         also_from: &[1.0 / 15.0, 1.0 / 5.0, 1.0 / 2.0, 3.0 / 4.0],
-        also_locked: &[(1.0 / 4.0, 0.5), (3.0 / 4.0, 0.5)],
+        also_locked: &[(1.0 / 4.0, 0.5), (3.0 / 4.0, 0.5), (1.0 / 2.0, 1.0)],
         dcm: false,
     },
     // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
@@ -842,7 +843,7 @@ impl SimulatedEffect {
             params.extend(il_calibration(&cand.fit.params));
         }
         // A reading locked to the PWM is reported with its lock (held, like the scheme it is).
-        if p.sample_duty_share != 0.0 {
+        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) && p.sample_duty_share != 0.0 {
             params.insert("sample_duty_share".to_string(), p.sample_duty_share);
         }
         // A bias law is read against the voltages it was fitted for (see `bias_reference`).

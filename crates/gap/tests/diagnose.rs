@@ -534,23 +534,30 @@ fn a_reading_in_the_off_time_is_sample_delay() {
     assert_final_cl_holds(&dx, cl);
 }
 
-/// A controller that reads in the middle of the on-time (average current mode) or of the
-/// off-time: the instant moves with the duty, by half the on-time's change. `sample_delay` is
-/// found with that lock, the instant at half duty within 2 % of the period (a quarter and three
-/// quarters of it), and Cl lands in its interval. With a fixed instant only, mid-on was named a
-/// 67 mV `sensor_offset` with Cl not identified, and mid-off a fixed late reading, an offset
-/// and an ESL, with Cl a confident 1.45 [1.36, 1.47] µF.
+/// A controller that triggers its ADC from the PWM reads at an instant that moves with the duty:
+/// in the middle of the on-time (average current mode) or of the off-time (by half the on-time's
+/// change), or 150 ns after the turn-off edge (by all of it). `sample_delay` is found with that
+/// lock, the instant at half duty within 2 % of the period, and Cl lands in its interval. With a
+/// fixed instant only, mid-on was named a 67 mV `sensor_offset` with Cl not identified, and
+/// mid-off a fixed late reading, an offset and an ESL, with Cl a confident 1.45 [1.36, 1.47] µF.
 #[test]
 fn a_reading_locked_to_the_pwm_is_found_with_its_lock() {
     let cl = 4.7e-6;
     let period = 1.0 / Params::default().fs;
-    for (delay, name) in [(0, "mid-on"), (50, "mid-off")] {
-        let d = read_at(Params { cl, ..Params::default() }, |duty| delay + (50.0 * duty).round() as usize);
-        let dx = diagnose_switched(&d);
+    /// A trigger scheme: its name, the reading's substep of 100 at a duty, the share, and the
+    /// instant at half duty in periods.
+    type Scheme = (&'static str, fn(f64) -> usize, f64, f64);
+    let schemes: [Scheme; 3] = [
+        ("mid-on", |duty| (50.0 * duty).round() as usize, 0.5, 0.25),
+        ("mid-off", |duty| 50 + (50.0 * duty).round() as usize, 0.5, 0.75),
+        ("after the turn-off", |duty| 5 + (100.0 * duty).round() as usize, 1.0, 0.55),
+    ];
+    for (name, late, share, at_half_duty) in schemes {
+        let dx = diagnose_switched(&read_at(Params { cl, ..Params::default() }, late));
         let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap_or_else(|| panic!("{name}: no sample_delay: {}", dx.selection_ended));
-        assert_eq!(late.params.get("sample_duty_share"), Some(&0.5), "{name}: {:?}", late.params);
-        let (fitted, at_half_duty) = (late.params["sample_delay"], (delay + 25) as f64 / 100.0 * period);
-        assert!((fitted - at_half_duty).abs() < 0.02 * period, "{name}: sample delay {fitted:e} for {at_half_duty:e}");
+        assert_eq!(late.params.get("sample_duty_share"), Some(&share), "{name}: {:?}", late.params);
+        let fitted = late.params["sample_delay"] / period;
+        assert!((fitted - at_half_duty).abs() < 0.02, "{name}: sample delay {fitted} T for {at_half_duty} T");
         assert_final_cl_holds(&dx, cl);
     }
 }
