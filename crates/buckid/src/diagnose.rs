@@ -111,7 +111,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     };
 
     println!("source      {}", args.data.display());
-    println!("gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF)", dx.gap_before.nrmse, name(dx.nominal), dx.gap_before.cl * 1e6);
+    let nominal_cl = dx.gap_before.cl_not_identified().map_or(String::new(), |why| format!(", {why}"));
+    println!("gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF{nominal_cl})", dx.gap_before.nrmse, name(dx.nominal), dx.gap_before.cl * 1e6);
     if let Some((f, _)) = &fmu_out {
         let cl = f.cl.map_or_else(|| "its own Cl".to_string(), |cl| format!("Cl {:.4} µF", cl * 1e6));
         println!("FMU         held-out NRMSE {:.4} as given ({}, {cl})", f.nrmse, f.path);

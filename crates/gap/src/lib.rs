@@ -107,6 +107,11 @@ pub struct Before {
     /// one (Cl not identified) or the measured one reads it reversed ([`CurrentMisfit`]): how.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_current_misfit: Option<CurrentMisfit>,
+    /// Whatever the verdict, when the nominal misses `vout` grossly (by more than
+    /// [`effect::GROSS_MISS_FLOORS`] noise floors, and materially on the swing's scale): that
+    /// multiple. Its Cl, fitted to a model that cannot follow the data, then says nothing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub misses_by_floors: Option<f64>,
 }
 
 impl Before {
@@ -124,6 +129,7 @@ impl Before {
             cl_widened_by: None,
             cl_misses_by_floors: None,
             cl_current_misfit: None,
+            misses_by_floors: effect::gross_miss(baseline.rms, baseline.floor, baseline.swing),
         };
         match tested.map(|t| t.cl) {
             Some(t) => Self {
@@ -137,6 +143,15 @@ impl Before {
                 ..before
             },
             None => before,
+        }
+    }
+
+    /// Why the nominal fit's Cl says nothing, where it does not: a gross miss, an interval that
+    /// does not pin it down (`None` where it is a value, if only the nominal's).
+    pub fn cl_not_identified(&self) -> Option<String> {
+        match self.misses_by_floors {
+            Some(k) => Some(format!("not identified: the nominal model misses vout by {k:.1}× its noise floor")),
+            None => (!estimator::validate::identified(self.cl_ci95)).then(|| "not identified".to_string()),
         }
     }
 
@@ -510,6 +525,7 @@ mod tests {
             cl_widened_by: None,
             cl_misses_by_floors: None,
             cl_current_misfit: Some(misfit),
+            misses_by_floors: None,
         };
         assert!(before.cl_move().sentence(None).contains("probe gain of ×0.60"), "{}", before.cl_move().sentence(None));
     }

@@ -355,12 +355,15 @@ fn unequal_switches_are_found() {
 /// A diode buck whose inductor has 40 mΩ more than its nominal (in series all period, the diode's
 /// off-time too): the second step is an extra series resistance (`series_resistance`), not the
 /// high side's nor the diode's alone. (That form used to fail on every switched stack: its
-/// fit was read as the switches' own resistance.)
+/// fit was read as the switches' own resistance.) The nominal, missing the diode's drop by
+/// far more than the noise, has fitted a Cl that says nothing, and says so.
 #[test]
 fn a_series_resistance_behind_a_diode_is_in_series_all_period() {
     let c = plant(Params { cl: CL, rl: 0.14, diode_drop: 0.4, ..Params::default() }, Mode::Switched);
     let d = data_at(c, 2.0);
     let dx = diagnose_switched(&d);
+    let nominal_cl = dx.gap_before.cl_not_identified().unwrap_or_default();
+    assert!(nominal_cl.starts_with("not identified: the nominal model misses vout by"), "{nominal_cl:?}");
     let names: Vec<&str> = dx.selected.iter().map(|e| e.name).collect();
     assert_eq!(names, ["diode_drop", "switch_resistance"], "{}", dx.selection_ended);
     let r = dx.selected[1].params.get("series_resistance").copied();
@@ -377,6 +380,7 @@ fn immaterial_or_tolerated_mismatch_is_none() {
     let d = data(plant(Params { cl: CL, l: 3.3e-6 * 1.001, ..Params::default() }, Mode::Switched));
     let dx = diagnose(&d, &Params::default(), &switched).unwrap();
     assert_eq!(dx.verdict, "none", "{:?}", dx.effects.iter().map(|e| (e.name, e.standing())).collect::<Vec<_>>());
+    assert_eq!(dx.gap_before.cl_not_identified(), None, "the nominal's Cl is a value here");
 
     let c = plant(Params { cl: CL, l: 3.3e-6 * 1.005, ..Params::default() }, Mode::Switched);
     let exp = Experiment { samples: 3001, noise_vout: 0.1e-3, noise_seed: 11, ..Experiment::default() };

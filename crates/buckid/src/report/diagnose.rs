@@ -187,7 +187,7 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
         si(dx.gap_before.rms, "V", 3),
         si(floor, "V", 3),
         esc(w.noise_floor_from.describe()),
-        si(dx.gap_before.cl, "F", 4),
+        si(dx.gap_before.cl, "F", 4) + &dx.gap_before.cl_not_identified().map_or(String::new(), |why| format!(", {}", esc(&why))),
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {}.", esc(path), si(nrmse, "", 3))),
     ));
     page.figure("signature", signature.render()?);
