@@ -69,7 +69,7 @@ pub struct Outputs {
 /// is simulated exactly, however short.
 const SNAP: f64 = 1e-9;
 /// Pieces with cached transition matrices (PRBS between two duty levels needs four, dead time
-/// and diode conduction a few more).
+/// and diode conduction a few more). Pieces beyond them go on the circuit's ladder.
 const CACHE_SLOTS: usize = 16;
 /// Circuits with cached [`Ladder`]s (diode conduction and the blocked inductor, or two
 /// saturation regions, each of one or two series resistances; under `cap_dc_bias` they are
@@ -230,8 +230,6 @@ pub struct Converter {
     #[serde(skip)]
     cache: Vec<Piece>,
     #[serde(skip)]
-    next_slot: usize,
-    #[serde(skip)]
     ladders: Vec<(Circuit, Ladder)>,
     #[serde(skip)]
     next_ladder: usize,
@@ -268,7 +266,6 @@ impl Converter {
             period_index: 0,
             time: 0.0,
             cache: Vec::with_capacity(CACHE_SLOTS),
-            next_slot: 0,
             ladders: Vec::with_capacity(LADDER_SLOTS),
             next_ladder: 0,
         };
@@ -541,7 +538,6 @@ impl Converter {
     /// Drops transitions computed from old parameters and re-derives what depends on them.
     fn parameters_changed(&mut self) {
         self.cache.clear();
-        self.next_slot = 0;
         self.ladders.clear();
         self.next_ladder = 0;
         self.cl_now = self.params.cl_at(self.x[2]);
@@ -901,29 +897,38 @@ impl Converter {
     /// The current point advanced over a whole gate interval of length `tau`.
     ///
     /// The transition comes from the Van Loan exponential of [`Lti::discretize`] and is cached,
-    /// so that the ideal circuit is the design's discretization bit for bit. Under
-    /// `cap_dc_bias`, `Cl` and so the circuit changes every period and nothing repeats: the
-    /// interval is reached on the circuit's [`Ladder`] (cheaper to build than the dynamic-size
-    /// exponential, and shared by the pieces of the period and their state events).
+    /// so that the ideal circuit is the design's discretization bit for bit. Where nothing
+    /// repeats, the interval is reached on the circuit's [`Ladder`] (cheaper to build than the
+    /// dynamic-size exponential, and shared by the pieces of the period and their state
+    /// events): under `cap_dc_bias`, whose `Cl` and so circuit change every period, and once the
+    /// cache is full (a duty that moves every period, as a closed loop's does, or a host that
+    /// steps at instants of its own), where each new length cost an exponential, evicting one
+    /// that was to come again (a closed-loop record of 76 duty levels took 22 times as long to
+    /// diagnose as an open-loop one).
     fn whole(&mut self, circuit: Circuit, tau: f64, u: &Vector2<f64>) -> Point {
-        if self.params.cap_dc_bias > 0.0 {
+        let cached = if self.params.cap_dc_bias > 0.0 { None } else { self.cached(circuit, tau) };
+        let Some(i) = cached else {
             let i = self.ladder(circuit, tau);
             return self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, u, tau);
-        }
-        let i = self.cached(circuit, tau);
+        };
         let (x, z) = self.cache[i].step.apply(&self.x, &self.z, u);
         Point { t: tau, x, z }
     }
 
-    /// Index of the cached transition of `circuit` over `tau`, computing it on a miss.
-    fn cached(&mut self, circuit: Circuit, tau: f64) -> usize {
+    /// Index of the cached transition of `circuit` over `tau`, computing it on a miss while the
+    /// cache has room (`None` once it is full).
+    fn cached(&mut self, circuit: Circuit, tau: f64) -> Option<usize> {
         // The length first: it tells the cached pieces of one circuit apart.
         if let Some(i) = self.cache.iter().position(|p| p.step.h.to_bits() == tau.to_bits() && p.circuit == circuit) {
-            return i;
+            return Some(i);
+        }
+        if self.cache.len() == CACHE_SLOTS {
+            return None;
         }
         let d = self.lti(circuit).discretize(tau);
         let step = Transition { h: tau, ad: pad(&d.ad), bd: pad(&d.bd), ia: pad(&d.ia), ib: pad(&d.ib) };
-        store(&mut self.cache, &mut self.next_slot, CACHE_SLOTS, Piece { step, circuit })
+        self.cache.push(Piece { step, circuit });
+        Some(self.cache.len() - 1)
     }
 
     /// Index of the cached [`Ladder`] of `circuit`, building it on a miss, grown for a piece of
@@ -948,20 +953,6 @@ impl Converter {
             }
         };
         self.ladders[i].1.grow(length);
-        i
-    }
-}
-
-/// Puts `item` into a cache of `slots` entries, replacing the oldest once it is full (`next`
-/// points at it): the index it went to.
-fn store<T>(cache: &mut Vec<T>, next: &mut usize, slots: usize, item: T) -> usize {
-    if cache.len() < slots {
-        cache.push(item);
-        cache.len() - 1
-    } else {
-        let i = *next;
-        cache[i] = item;
-        *next = (i + 1) % slots;
         i
     }
 }

@@ -863,3 +863,24 @@ fn a_full_sequence_the_joint_refit_cannot_finish_goes_on() {
     }
     assert_final_cl_holds(&dx, cl);
 }
+
+/// Closed-loop data (the converter's own PID, a 10-bit DPWM, 2 mV of ADC noise, a ±0.02 PRBS
+/// dither; the applied duty recorded): the duty moves every period over tens of levels, and
+/// the plant is the nominal one, so the verdict is `none` and Cl holds, as in open loop.
+#[test]
+fn closed_loop_data_of_the_nominal_plant_is_none() {
+    use estimator::experiment::Prbs;
+    let cl = 4.7e-6;
+    let mut c = plant(Params { cl, ..Params::default() }, Mode::Switched);
+    for (id, v) in [(VarId::Control, 2.0), (VarId::DpwmBits, 10.0), (VarId::AdcNoise, 2e-3)] {
+        c.set(id, v).unwrap();
+    }
+    let exp = Experiment { record_applied_duty: true, prbs: Prbs { low: -0.02, high: 0.02, ..Prbs::default() }, ..Experiment::default() };
+    let mut d = run(&mut ModelPlant::closed_loop(c), &exp).unwrap();
+    d.meta.retain(|k, _| k == "fs" || k == "U");
+    let levels = d.duty.iter().map(|x| x.to_bits()).collect::<std::collections::BTreeSet<_>>().len();
+    assert!(levels > 20, "{levels} duty levels");
+    let dx = diagnose_switched(&d);
+    assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
+    assert_final_cl_holds(&dx, cl);
+}
