@@ -14,6 +14,11 @@ pub struct ConvertArgs {
     /// Switching frequency [Hz], used when the capture has no switch-node or gate edges.
     #[arg(long)]
     fs: Option<f64>,
+    /// The capture's own name of a column (repeatable), for an oscilloscope's export:
+    /// `vout=CH1`, `il=CH2`, `sw=CH3`, `time=TIME` (a unit in the header is kept: `CH1 [mV]`).
+    /// The scope's preamble before its header row, and a row of units after it, are skipped.
+    #[arg(long = "column", value_name = "NAME=HEADER", value_parser = column_pair)]
+    columns: Vec<(String, String)>,
     /// Where to write the data-contract CSV.
     #[arg(long)]
     out: PathBuf,
@@ -23,7 +28,8 @@ pub struct ConvertArgs {
 pub fn run(args: &ConvertArgs) -> Result<()> {
     eprintln!("reading {}", args.scope.display());
     let text = std::fs::read_to_string(&args.scope).with_context(|| format!("reading {}", args.scope.display()))?;
-    let cap = capture::Capture::parse_csv(&text).with_context(|| format!("{}", args.scope.display()))?;
+    let map: Vec<(&str, &str)> = args.columns.iter().map(|(to, from)| (to.as_str(), from.as_str())).collect();
+    let cap = capture::Capture::parse_csv_with(&text, &map).with_context(|| format!("{}", args.scope.display()))?;
     let periods = capture::reduce(&cap, args.fs)?;
     let mut meta = cap.meta.clone();
     if cap.vin.is_none() && !meta.contains_key("U") {
@@ -35,4 +41,12 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     println!("duty        {:.4} … {:.4}", periods.duty.iter().copied().fold(f64::INFINITY, f64::min), periods.duty.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     eprintln!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// `NAME=HEADER` of `--column`.
+fn column_pair(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((name, header)) if !name.trim().is_empty() && !header.trim().is_empty() => Ok((name.trim().to_string(), header.trim().to_string())),
+        _ => Err(format!("`{s}` is not NAME=HEADER (e.g. vout=CH1)")),
+    }
 }

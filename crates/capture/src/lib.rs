@@ -55,18 +55,53 @@ pub struct Capture {
 const COLUMNS: [Column; 6] =
     [Column::required("time", "s"), Column::required("vout", "V"), Column::optional("il", "A"), Column::optional("sw", "V"), Column::optional("gate", "V"), Column::optional("vin", "V")];
 
+/// Lines an oscilloscope's preamble (its settings before the header row) may take.
+const PREAMBLE_LINES: usize = 64;
+
+/// A header row with the capture's own names of the contract's columns (`map`) renamed to
+/// them, as `csv_header::find` reads it.
+fn mapped_headers(row: &[&str], map: &[(&str, &str)]) -> Vec<String> {
+    row.iter().map(|h| map.iter().find_map(|(to, from)| csv_header::renamed(h, from, to)).unwrap_or_else(|| (*h).to_string())).collect()
+}
+
 impl Capture {
     /// Parses capture CSV text: `# key = value` lines, a header, then numbers; `time` and
     /// `vout` required, unknown columns ignored.
     pub fn parse_csv(text: &str) -> Result<Capture, CaptureError> {
+        Self::parse_csv_with(text, &[])
+    }
+
+    /// [`Capture::parse_csv`] for an oscilloscope's own export: `map` gives the capture's names
+    /// of the contract's columns (`("vout", "CH1")`, `("time", "TIME")`), the header row is the
+    /// first of the first [`PREAMBLE_LINES`] that names `time` and `vout` (the lines before it,
+    /// the scope's settings, are skipped), and a row of units right after it (`second,Volt`) is
+    /// skipped too.
+    pub fn parse_csv_with(text: &str, map: &[(&str, &str)]) -> Result<Capture, CaptureError> {
+        if let Some((to, _)) = map.iter().find(|(to, _)| !COLUMNS.iter().any(|c| c.name == *to)) {
+            let names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
+            return Err(data_err(format!("`{to}` is not a column of a capture (one of {})", names.join(", "))));
+        }
         let csv_header::Split { meta, body, header_line } = csv_header::split(text);
         if body.trim().is_empty() {
             return Err(data_err("no header row and no data (empty file?)"));
         }
+        // The header row: the first that names the required columns; where none does, the
+        // first row's error says what is missing.
+        let named = |row: &str| csv_header::find(&mapped_headers(&csv_header::fields(row, csv_header::delimiter(row)), map).iter().map(String::as_str).collect::<Vec<_>>(), &COLUMNS);
+        let first = body.lines().next().unwrap_or("");
+        let preamble = body.split_inclusive('\n').take(PREAMBLE_LINES).position(|row| named(row).is_ok());
+        let Some(skipped) = preamble else {
+            let why = named(first).err().unwrap_or_default();
+            let hint = if map.is_empty() { "; an oscilloscope's export names its columns itself: map them, e.g. `--column vout=CH1 --column time=TIME`" } else { "" };
+            return Err(data_err(format!("line {header_line}: {why}{hint}")));
+        };
+        let body: &str = &body[body.split_inclusive('\n').take(skipped).map(str::len).sum::<usize>()..];
+        let header_line = header_line + skipped;
         let delimiter = csv_header::delimiter(body);
-        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).delimiter(delimiter).from_reader(body.as_bytes());
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).delimiter(delimiter).flexible(true).from_reader(body.as_bytes());
         let headers = reader.headers().map_err(|e| data_err(format!("line {header_line}: {e}")))?.clone();
-        let index = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
+        let headers = mapped_headers(&headers.iter().collect::<Vec<_>>(), map);
+        let index = csv_header::find(&headers.iter().map(String::as_str).collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         let mut record = csv::StringRecord::new();
         let mut line = header_line;
@@ -76,6 +111,11 @@ impl Capture {
                 Ok(true) => {}
                 Ok(false) => break,
                 Err(e) => return Err(data_err(format!("line {line}: {e}"))),
+            }
+            // A row of units under the header (`second,Volt,Volt`): no field of it is a number.
+            let units = line == header_line + 1 && index.iter().flatten().all(|f| record.get(f.index).is_some_and(|v| v.parse::<f64>().is_err()));
+            if units {
+                continue;
             }
             for (c, found) in index.iter().enumerate() {
                 let Some(found) = *found else { continue };
@@ -388,6 +428,34 @@ mod tests {
             let mid = 5.0 + (p.time[i] + 5e-6) * 1e3;
             assert!((a - mid).abs() < 1e-4, "{a} vs {mid}");
         }
+    }
+
+    /// `cap`'s time, vout and switch node as CSV rows under `header`, after `preamble`.
+    fn export(cap: &Capture, preamble: &str, header: &str) -> String {
+        let rows = cap.time.iter().zip(&cap.vout).zip(cap.sw.as_ref().unwrap()).map(|((t, v), w)| format!("{t:e},{v},{w}\n"));
+        format!("{preamble}{header}\n") + &rows.collect::<String>()
+    }
+
+    /// Exports as oscilloscopes write them, their columns named with `--column`: a Tektronix
+    /// MSO's (settings before the header row, quoted names), a Keysight InfiniiVision's (a row
+    /// of units under the header), and one in millivolts; each reads as the same capture.
+    #[test]
+    fn an_oscilloscopes_export_reads_with_its_columns_named() {
+        let square = square();
+        let plain = Capture::parse_csv(&export(&square, "", "time,vout,sw")).unwrap();
+        let tek = "Model,MSO54\nFirmware Version,1.28\n\nWaveform Type,ANALOG\nPoint Format,Y\nHorizontal Units,s\nSample Interval,1.0277e-07\nRecord Length,19\n";
+        let map = [("time", "TIME"), ("vout", "CH1"), ("sw", "CH3")];
+        assert_eq!(Capture::parse_csv_with(&export(&square, tek, "\"TIME\",\"CH1\",\"CH3\""), &map).unwrap(), plain);
+        let keysight = [("time", "x-axis"), ("vout", "1"), ("sw", "3")];
+        assert_eq!(Capture::parse_csv_with(&export(&square, "", "x-axis,1,3\nsecond,Volt,Volt"), &keysight).unwrap(), plain);
+        let milli = Capture { vout: square.vout.iter().map(|v| v * 1e3).collect(), ..square.clone() };
+        let read = Capture::parse_csv_with(&export(&milli, "", "TIME,CH1 [mV],CH3"), &map).unwrap();
+        assert!(read.vout.iter().zip(&plain.vout).all(|(a, b)| (a - b).abs() < 1e-12), "millivolts read as volts");
+        // Unnamed, the export says what is missing and how to name it.
+        let e = Capture::parse_csv(&export(&square, tek, "TIME,CH1,CH3")).unwrap_err().to_string();
+        assert!(e.contains("line 1: required column `time` is missing") && e.contains("--column vout=CH1"), "{e}");
+        let e = Capture::parse_csv_with("time,vout\n0,1\n", &[("vo", "CH1")]).unwrap_err().to_string();
+        assert!(e.contains("`vo` is not a column of a capture"), "{e}");
     }
 
     #[test]

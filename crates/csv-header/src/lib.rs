@@ -45,6 +45,28 @@ pub fn split(text: &str) -> Split<'_> {
     Split { meta, body: "", header_line: 0 }
 }
 
+/// The fields of one CSV row split at `delimiter`, trimmed and unquoted (a header row as an
+/// oscilloscope writes it: `"TIME","CH1"`).
+pub fn fields(row: &str, delimiter: u8) -> Vec<&str> {
+    row.trim_end_matches(['\r', '\n']).split(char::from(delimiter)).map(|f| f.trim().trim_matches('"').trim()).collect()
+}
+
+/// `header` renamed from the name `from` (any case) to `to`, its unit kept (`CH1 [mV]` →
+/// `vout [mV]`, `CH2/mA` → `il [mA]`); `None` where its name is not `from`.
+///
+/// ```
+/// assert_eq!(csv_header::renamed("CH1 [mV]", "ch1", "vout").as_deref(), Some("vout [mV]"));
+/// assert_eq!(csv_header::renamed("TIME", "time", "time").as_deref(), Some("time"));
+/// assert_eq!(csv_header::renamed("CH2", "CH1", "vout"), None);
+/// ```
+pub fn renamed(header: &str, from: &str, to: &str) -> Option<String> {
+    let (name, unit) = match name_and_unit(header) {
+        (_, _, Some((n, u))) if n.eq_ignore_ascii_case(from) => (n, u),
+        (name, unit, _) => (name, unit),
+    };
+    name.eq_ignore_ascii_case(from).then(|| if unit.is_empty() { to.to_string() } else { format!("{to} [{unit}]") })
+}
+
 /// A column a contract reads: its name, its SI unit (`""` for a ratio such as the duty), and
 /// whether a file must have it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
