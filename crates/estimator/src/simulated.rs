@@ -199,7 +199,8 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
 /// Runs the switched converter with circuit values `p` period by period on `data`'s duty, `io`
 /// and `vin`, from `start` (a voltage: both capacitors at it, the DC point's current), calling
 /// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it, moved
-/// with the duty by `p.sample_duty_share`) with the inductor current at the period's start. Returns the converter at the end of the record.
+/// with the duty by `p.sample_duty_share`) with the inductor current at the period's start.
+/// Returns the converter at the end of the record.
 fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64)) -> Result<Converter, EstimatorError> {
     let Start { v0, dil } = start.into();
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());

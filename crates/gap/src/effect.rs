@@ -445,8 +445,9 @@ pub(crate) struct Baseline {
     pub swing: f64,
     /// Relative tolerance of the nominal circuit values (a drift within it is no finding).
     pub tolerance: f64,
-    /// The largest duty of the record (where a reading locked to the PWM comes latest).
-    pub max_duty: f64,
+    /// The record's smallest and largest duties (where a reading locked to the PWM comes
+    /// earliest and latest).
+    pub duty_range: [f64; 2],
 }
 
 /// Gap power below which (as a fraction of the floor's) the gap is within the floor's own
@@ -601,7 +602,7 @@ impl Baseline {
             held_out: data.len() - n_est,
             swing: swing(&data.vout[n_est.min(data.len())..]),
             tolerance,
-            max_duty: data.duty.iter().copied().fold(0.0, f64::max),
+            duty_range: data.duty.iter().fold([f64::INFINITY, 0.0], |[lo, hi], &d| [lo.min(d), hi.max(d)]),
         }
     }
 
@@ -960,9 +961,13 @@ impl std::fmt::Display for ClCheck {
     }
 }
 
-/// The latest instant a reading comes at in the circuit `p` at duties up to `max_duty` [s].
-fn latest_instant(p: &Params, max_duty: f64) -> f64 {
-    p.sample_delay + (p.sample_duty_share * (max_duty - 0.5)).max(0.0) * p.period()
+/// Whether the instant of a reading in the circuit `p` ended on a bound of its range at the
+/// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
+/// PWM, its earliest at the period start (a fixed instant's log scale never reaches zero).
+fn instant_on_bound(p: &Params, duty_range: [f64; 2]) -> bool {
+    let at = |duty: f64| p.sample_delay + p.sample_duty_share * (duty - 0.5) * p.period();
+    let (earliest, latest) = (at(duty_range[0]).min(at(duty_range[1])), at(duty_range[0]).max(at(duty_range[1])));
+    latest >= MAX_SAMPLE_DELAY * p.period() * (1.0 - AT_BOUND) || (p.sample_duty_share != 0.0 && earliest <= AT_BOUND * p.period())
 }
 
 /// Significance against `against` (LR test at 1 % for nested continuous effects, ΔAIC < −10
@@ -992,7 +997,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let cl_on_bound = cl_on(&t.cand);
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
-        || t.params.get(Free::SampleDelay.name()).is_some_and(|_| latest_instant(&t.cand.fit.params, baseline.max_duty) >= MAX_SAMPLE_DELAY * t.cand.fit.params.period() * (1.0 - AT_BOUND));
+        || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range));
     let fit = EffectFit {
         name,
         params: t.params,
@@ -1040,12 +1045,28 @@ mod tests {
         }
     }
 
+    /// A reading's instant ends on a bound at the period's 0.95 (fixed or locked to the PWM,
+    /// at the largest duty) or, locked, at the period start (at the smallest duty); a fixed
+    /// instant near zero is merely not identified (its log scale never gets there).
+    #[test]
+    fn an_instant_is_on_a_bound_at_either_end_of_the_period() {
+        let t = Params::default().period();
+        let reading = |delay: f64, share: f64| Params { sample_delay: delay * t, sample_duty_share: share, ..Params::default() };
+        let duties = [0.4, 0.6];
+        assert!(!instant_on_bound(&reading(0.25, 0.5), duties), "mid-on-time");
+        assert!(!instant_on_bound(&reading(0.75, 0.5), duties), "mid-off-time");
+        assert!(instant_on_bound(&reading(0.95, 0.0), duties));
+        assert!(instant_on_bound(&reading(0.9, 0.5), duties), "0.95 of the period at duty 0.6");
+        assert!(instant_on_bound(&reading(0.05, 0.5), duties), "the period start at duty 0.4");
+        assert!(!instant_on_bound(&reading(1e-6, 0.0), duties));
+    }
+
     /// A fit judged against a model in a worse minimum than another fit of it (`rms_best`):
     /// what it closes is of the better one's gap. One worse than that is no finding; judged
     /// against the better fit itself, nothing changes.
     #[test]
     fn a_fit_worse_than_the_better_nominal_is_never_material() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, max_duty: 0.6 };
+        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, duty_range: [0.4, 0.6] };
         let fit = |rms_after: f64, against: f64| EffectFit {
             name: "dcm",
             params: BTreeMap::new(),
@@ -1096,7 +1117,7 @@ mod tests {
     /// material on 1 V; within the floor nothing is.
     #[test]
     fn a_gap_is_material_above_the_floor_and_the_swing() {
-        let on = |floor: f64, swing: f64| Baseline { nrmse: 1.0, rms: 1.0, cl: 1e-6, floor: Some(floor), floor_samples: 2000, held_out: 1000, swing, tolerance: 0.01, max_duty: 0.6 };
+        let on = |floor: f64, swing: f64| Baseline { nrmse: 1.0, rms: 1.0, cl: 1e-6, floor: Some(floor), floor_samples: 2000, held_out: 1000, swing, tolerance: 0.01, duty_range: [0.4, 0.6] };
         assert_eq!(on(0.2e-3, 1.0).misses_materially(0.36e-3), Some(false));
         assert_eq!(on(0.2e-3, 0.4).misses_materially(0.36e-3), Some(true));
         assert_eq!(on(2e-3, 1.0).misses_materially(3.6e-3), Some(true));
