@@ -15,10 +15,12 @@ pub struct ConvertArgs {
     #[arg(long)]
     fs: Option<f64>,
     /// The capture's own name of a column (repeatable), for an oscilloscope's export:
-    /// `vout=CH1`, `il=CH2`, `sw=CH3`, `time=TIME` (a unit in the header is kept: `CH1 [mV]`).
+    /// `vout=CH1`, `il=CH2`, `sw=CH3`, `time=TIME` (a unit in the header is kept: `CH1 [mV]`),
+    /// `il=CH2*10` for a current read in volts (here across a 0.1 Ω shunt: 10 A per volt; the
+    /// values as written times the scale, the header's unit set aside).
     /// The scope's preamble before its header row, and a row of units after it, are skipped.
-    #[arg(long = "column", value_name = "NAME=HEADER", value_parser = column_pair)]
-    columns: Vec<(String, String)>,
+    #[arg(long = "column", value_name = "NAME=HEADER[*SCALE]", value_parser = column_name)]
+    columns: Vec<(String, String, Option<f64>)>,
     /// Where to write the data-contract CSV.
     #[arg(long)]
     out: PathBuf,
@@ -28,7 +30,7 @@ pub struct ConvertArgs {
 pub fn run(args: &ConvertArgs) -> Result<()> {
     eprintln!("reading {}", args.scope.display());
     let text = std::fs::read_to_string(&args.scope).with_context(|| format!("reading {}", args.scope.display()))?;
-    let map: Vec<(&str, &str)> = args.columns.iter().map(|(to, from)| (to.as_str(), from.as_str())).collect();
+    let map: Vec<capture::Named> = args.columns.iter().map(|(column, header, scale)| capture::Named { column, header, scale: *scale }).collect();
     let cap = capture::Capture::parse_csv_with(&text, &map).with_context(|| format!("{}", args.scope.display()))?;
     let periods = capture::reduce(&cap, args.fs)?;
     let mut meta = cap.meta.clone();
@@ -43,10 +45,16 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     Ok(())
 }
 
-/// `NAME=HEADER` of `--column`.
-fn column_pair(s: &str) -> Result<(String, String), String> {
-    match s.split_once('=') {
-        Some((name, header)) if !name.trim().is_empty() && !header.trim().is_empty() => Ok((name.trim().to_string(), header.trim().to_string())),
-        _ => Err(format!("`{s}` is not NAME=HEADER (e.g. vout=CH1)")),
+/// `NAME=HEADER[*SCALE]` of `--column`.
+fn column_name(s: &str) -> Result<(String, String, Option<f64>), String> {
+    let usage = || format!("`{s}` is not NAME=HEADER or NAME=HEADER*SCALE (e.g. vout=CH1, il=CH2*10)");
+    let (name, header) = s.split_once('=').ok_or_else(usage)?;
+    let (header, scale) = match header.rsplit_once('*') {
+        Some((h, k)) => (h, Some(k.trim().parse::<f64>().map_err(|_| usage())?)),
+        None => (header, None),
+    };
+    if name.trim().is_empty() || header.trim().is_empty() {
+        return Err(usage());
     }
+    Ok((name.trim().to_string(), header.trim().to_string(), scale))
 }

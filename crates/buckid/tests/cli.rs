@@ -739,4 +739,5 @@ fn convert_reads_an_oscilloscopes_export_with_its_columns_named() {
     }
     assert_clean_failure(&buckid(&["convert", "--scope", tek.to_str().unwrap(), "--out", named.to_str().unwrap()]), "--column vout=CH1");
     assert_clean_failure(&buckid(&["convert", "--scope", tek.to_str().unwrap(), "--out", named.to_str().unwrap(), "--column", "vout"]), "is not NAME=HEADER");
+    assert_clean_failure(&buckid(&["convert", "--scope", tek.to_str().unwrap(), "--out", named.to_str().unwrap(), "--column", "il=CH2*ten"]), "NAME=HEADER*SCALE");
 }

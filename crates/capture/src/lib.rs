@@ -58,10 +58,24 @@ const COLUMNS: [Column; 6] =
 /// Lines an oscilloscope's preamble (its settings before the header row) may take.
 const PREAMBLE_LINES: usize = 64;
 
-/// A header row with the capture's own names of the contract's columns (`map`) renamed to
-/// them, as `csv_header::find` reads it.
-fn mapped_headers(row: &[&str], map: &[(&str, &str)]) -> Vec<String> {
-    row.iter().map(|h| map.iter().find_map(|(to, from)| csv_header::renamed(h, from, to)).unwrap_or_else(|| (*h).to_string())).collect()
+/// A column of the contract under the capture's own name (`vout` as `CH1`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Named<'a> {
+    /// The contract's name: `time`, `vout`, `il`, `sw`, `gate` or `vin`.
+    pub column: &'a str,
+    /// The capture's name of it, as its header row has it (without the unit).
+    pub header: &'a str,
+    /// What the values, as written, are multiplied by to give the column's SI unit, the
+    /// header's unit then set aside: a current read in volts across a shunt, in amperes per
+    /// volt (`None`: the values as the header's unit has them).
+    pub scale: Option<f64>,
+}
+
+/// A header row with the capture's own names of the contract's columns (`named`) renamed to
+/// them, as `csv_header::find` reads it (without its unit where a scale replaces it).
+fn mapped_headers(row: &[&str], named: &[Named]) -> Vec<String> {
+    let rename = |h: &str, n: &Named| csv_header::renamed(h, n.header, n.column).map(|r| if n.scale.is_some() { n.column.to_string() } else { r });
+    row.iter().map(|h| named.iter().find_map(|n| rename(h, n)).unwrap_or_else(|| (*h).to_string())).collect()
 }
 
 impl Capture {
@@ -72,14 +86,17 @@ impl Capture {
     }
 
     /// [`Capture::parse_csv`] for an oscilloscope's own export: `map` gives the capture's names
-    /// of the contract's columns (`("vout", "CH1")`, `("time", "TIME")`), the header row is the
-    /// first of the first [`PREAMBLE_LINES`] that names `time` and `vout` (the lines before it,
-    /// the scope's settings, are skipped), and a row of units right after it (`second,Volt`) is
-    /// skipped too.
-    pub fn parse_csv_with(text: &str, map: &[(&str, &str)]) -> Result<Capture, CaptureError> {
-        if let Some((to, _)) = map.iter().find(|(to, _)| !COLUMNS.iter().any(|c| c.name == *to)) {
+    /// of the contract's columns ([`Named`]: `vout` as `CH1`, `time` as `TIME`), the header row
+    /// is the first of the first [`PREAMBLE_LINES`] that names `time` and `vout` (the lines
+    /// before it, the scope's settings, are skipped), and a row of units right after it
+    /// (`second,Volt`) is skipped too.
+    pub fn parse_csv_with(text: &str, map: &[Named]) -> Result<Capture, CaptureError> {
+        if let Some(n) = map.iter().find(|n| !COLUMNS.iter().any(|c| c.name == n.column)) {
             let names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
-            return Err(data_err(format!("`{to}` is not a column of a capture (one of {})", names.join(", "))));
+            return Err(data_err(format!("`{}` is not a column of a capture (one of {})", n.column, names.join(", "))));
+        }
+        if let Some(n) = map.iter().find(|n| n.scale.is_some_and(|k| !(k.is_finite() && k != 0.0))) {
+            return Err(data_err(format!("the scale of `{}` must be a finite number other than zero", n.column)));
         }
         let csv_header::Split { meta, body, header_line } = csv_header::split(text);
         if body.trim().is_empty() {
@@ -129,6 +146,11 @@ impl Capture {
         }
         if cols[0].is_empty() {
             return Err(data_err("the file has a header but no data rows"));
+        }
+        for n in map {
+            if let (Some(k), Some(c)) = (n.scale, COLUMNS.iter().position(|c| c.name == n.column)) {
+                cols[c].iter_mut().for_each(|v| *v *= k);
+            }
         }
         let opt = |c: usize, cols: &mut Vec<Vec<f64>>| index[c].is_some().then(|| std::mem::take(&mut cols[c]));
         Ok(Capture { il: opt(2, &mut cols), sw: opt(3, &mut cols), gate: opt(4, &mut cols), vin: opt(5, &mut cols), time: std::mem::take(&mut cols[0]), vout: std::mem::take(&mut cols[1]), meta })
@@ -444,9 +466,10 @@ mod tests {
         let square = square();
         let plain = Capture::parse_csv(&export(&square, "", "time,vout,sw")).unwrap();
         let tek = "Model,MSO54\nFirmware Version,1.28\n\nWaveform Type,ANALOG\nPoint Format,Y\nHorizontal Units,s\nSample Interval,1.0277e-07\nRecord Length,19\n";
-        let map = [("time", "TIME"), ("vout", "CH1"), ("sw", "CH3")];
+        let named = |column, header| Named { column, header, scale: None };
+        let map = [named("time", "TIME"), named("vout", "CH1"), named("sw", "CH3")];
         assert_eq!(Capture::parse_csv_with(&export(&square, tek, "\"TIME\",\"CH1\",\"CH3\""), &map).unwrap(), plain);
-        let keysight = [("time", "x-axis"), ("vout", "1"), ("sw", "3")];
+        let keysight = [named("time", "x-axis"), named("vout", "1"), named("sw", "3")];
         assert_eq!(Capture::parse_csv_with(&export(&square, "", "x-axis,1,3\nsecond,Volt,Volt"), &keysight).unwrap(), plain);
         let milli = Capture { vout: square.vout.iter().map(|v| v * 1e3).collect(), ..square.clone() };
         let read = Capture::parse_csv_with(&export(&milli, "", "TIME,CH1 [mV],CH3"), &map).unwrap();
@@ -454,8 +477,15 @@ mod tests {
         // Unnamed, the export says what is missing and how to name it.
         let e = Capture::parse_csv(&export(&square, tek, "TIME,CH1,CH3")).unwrap_err().to_string();
         assert!(e.contains("line 1: required column `time` is missing") && e.contains("--column vout=CH1"), "{e}");
-        let e = Capture::parse_csv_with("time,vout\n0,1\n", &[("vo", "CH1")]).unwrap_err().to_string();
+        // The switch node read through a 10:1 divider in volts: scaled, its unit set aside.
+        let divided = Capture { sw: Some(square.sw.as_ref().unwrap().iter().map(|v| v / 10.0).collect()), ..square.clone() };
+        let scaled = [map[0], map[1], Named { scale: Some(10.0), ..named("sw", "CH3") }];
+        let read = Capture::parse_csv_with(&export(&divided, "", "TIME,CH1,CH3 [V]"), &scaled).unwrap();
+        assert!(read.sw.unwrap().iter().zip(plain.sw.as_ref().unwrap()).all(|(a, b)| (a - b).abs() < 1e-12));
+        let e = Capture::parse_csv_with("time,vout\n0,1\n", &[named("vo", "CH1")]).unwrap_err().to_string();
         assert!(e.contains("`vo` is not a column of a capture"), "{e}");
+        let e = Capture::parse_csv_with("time,vout\n0,1\n", &[Named { scale: Some(0.0), ..named("vout", "CH1") }]).unwrap_err().to_string();
+        assert!(e.contains("the scale of `vout` must be"), "{e}");
     }
 
     #[test]
