@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes the committed reproducers of the fuzzing findings (fuzz/regressions/<target>/X) with
 the text their error must contain (X.expect); `cargo test` replays them
-(crates/estimator/tests/fuzz_regressions.rs, crates/fmi2-import/tests/fuzz_regressions.rs).
+(crates/estimator/tests/fuzz_regressions.rs, crates/fmi2-import/tests/fuzz_regressions.rs,
+crates/capture/tests/fuzz_regressions.rs).
 Files found by a fuzzer run are copied in by hand from fuzz/artifacts/ with their .expect."""
 import io, os, sys, zipfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -22,6 +23,12 @@ put("csv", "infinite-sample-period.csv", H + "time,duty,vout\n-1e308,0.5,5\n1e30
 put("csv", "utf16.csv", (H + "time,duty,vout\n0,0.5,5\n1e-6,0.5,5\n").encode("utf-16"), "UTF-16")
 put("csv", "latin1-micro.csv", ("# Cl = 1 \u00b5F\n" + H + "time,duty,vout\n0,0.5,5\n1e-6,0.5,5\n").encode("latin-1"), "line 1: byte 9 (0xb5) is not UTF-8")
 put("csv", "huge-number.csv", H + "time,duty,vout\n0,0.5,1e999\n1e-6,0.5,5\n", 'line 4: column `vout` value "1e999" is not finite')
+
+# Scope captures reduced at a given fs (finding 5): times spanning far more periods than the
+# capture has samples asked for one boundary per period (1e6 s at 330 kHz: 3.3e11, out of
+# memory), and times where a period is below their resolution never advanced (a hang).
+put("scope", "many-periods.csv", "TIME,CH1\n0,1\n1e-6,1\n1e6,1\n", "too few samples per period")
+put("scope", "period-below-resolution.csv", "time,vout\n1e20,1\n1.0000000000001e20,1\n1.0000000000002e20,1\n", "too few samples per period")
 
 MINI = open(os.path.join(HERE, "corpus", "model_description", "seed-mini.xml"), encoding="utf-8").read()
 put("model_description", "fmi1.xml", open(os.path.join(HERE, "corpus", "model_description", "seed-fmi1.xml")).read(), 'fmiVersion is "1.0"; only FMI 2.0 is supported')

@@ -95,3 +95,11 @@ put("fmu_archive", "duplicate.fmu", zipped([("modelDescription.xml", MINI), ("mo
 put("fmu_archive", "dir-file.fmu", zipped([("a/", ""), ("a", "x"), ("modelDescription.xml", MINI)]))
 put("fmu_archive", "empty.fmu", zipped([]))
 put("fmu_archive", "identifier.fmu", zipped([("modelDescription.xml", MINI.replace('modelIdentifier="M"', 'modelIdentifier="../../x"'))]))
+
+# ---- Oscilloscope captures ------------------------------------------------------------------
+# Three periods of a 100 kHz, duty-0.3 switch node at 20 samples per period, in the contract's
+# names and as a scope's export (preamble, quoted channel names, a units row).
+ROWS = [(i * 5e-7, 5.0 + 0.01 * (i % 20), 0.5 + 0.05 * (i % 20), 12.0 if i % 20 < 6 else 0.0) for i in range(60)]
+put("scope", "plain.csv", "# fs = 100000\ntime,vout,il,sw\n" + "".join(f"{t!r},{v!r},{c!r},{w!r}\n" for t, v, c, w in ROWS))
+put("scope", "tek.csv", 'Model,MSO54\nHorizontal Units,s\n"TIME","CH1","CH2","CH3"\nsecond,Volt,Volt,Volt\n'
+    + "".join(f"{t!r},{v!r},{c / 10!r},{w!r}\n" for t, v, c, w in ROWS))

@@ -180,6 +180,14 @@ pub struct Periods {
     pub source: String,
 }
 
+/// Whether a `period` holds at least [`MIN_SAMPLES_PER_PERIOD`] samples `dt` apart.
+fn enough_samples(period: f64, dt: f64) -> Result<(), CaptureError> {
+    if period / dt < MIN_SAMPLES_PER_PERIOD {
+        return Err(CaptureError::Periods(format!("too few samples per period: {:.1} (sample spacing {dt:e} s, period {period:e} s); at least {MIN_SAMPLES_PER_PERIOD} are needed", period / dt)));
+    }
+    Ok(())
+}
+
 /// Robust low/high levels: the 2nd and 98th percentiles.
 fn levels(x: &[f64]) -> (f64, f64) {
     let mut s = x.to_vec();
@@ -327,25 +335,19 @@ pub fn reduce(cap: &Capture, fs: Option<f64>) -> Result<Periods, CaptureError> {
                 }
                 None => (0.0, "phase: the first sample (no il to find it from)"),
             };
-            let mut b = Vec::new();
-            let mut tk = t[0] + phase;
-            while tk <= t[t.len() - 1] {
-                b.push(tk);
-                tk += period;
-            }
-            (b, None, format!("fs = {fs} Hz given, {how}"))
+            // Checked before the boundaries are laid: a capture whose times span far more
+            // periods than it has samples would otherwise ask for billions of them.
+            enough_samples(period, dt)?;
+            let first = t[0] + phase;
+            let count = ((t[t.len() - 1] - first) / period).floor() as usize + 1;
+            ((0..count).map(|k| first + k as f64 * period).collect(), None, format!("fs = {fs} Hz given, {how}"))
         }
     };
     if boundaries.len() < 2 {
         return Err(CaptureError::Periods("fewer than one complete period in the capture".into()));
     }
     let mean_period = (boundaries[boundaries.len() - 1] - boundaries[0]) / (boundaries.len() - 1) as f64;
-    if mean_period / dt < MIN_SAMPLES_PER_PERIOD {
-        return Err(CaptureError::Periods(format!(
-            "too few samples per period: {:.1} (sample spacing {dt:e} s, period {mean_period:e} s); at least {MIN_SAMPLES_PER_PERIOD} are needed",
-            mean_period / dt
-        )));
-    }
+    enough_samples(mean_period, dt)?;
     let mut out = Periods { fs: 1.0 / mean_period, source, ..Periods::default() };
     let (mut il0, mut il_avg, mut vin) = (Vec::new(), Vec::new(), Vec::new());
     for w in boundaries.windows(2) {

@@ -1,0 +1,35 @@
+//! The oscilloscope-capture reader and its reduction to periods (`buckid convert`): any text,
+//! read as the contract has it and as a scope's export with its columns named, then reduced
+//! at a given switching frequency and written out, must give a result or an error with a
+//! message, never a panic.
+#![no_main]
+
+use capture::{Capture, Named, reduce, to_csv};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(
+    init: {
+        std::panic::set_hook(Box::new(|info| eprintln!("{info}")));
+    },
+    |data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let named = |column, header, scale| Named { column, header, scale };
+    let scope = [named("time", "TIME", None), named("vout", "CH1", None), named("il", "CH2", Some(10.0)), named("sw", "CH3", None)];
+    for parsed in [Capture::parse_csv(text), Capture::parse_csv_with(text, &scope)] {
+        match parsed {
+            Ok(cap) => {
+                assert!(cap.time.len() == cap.vout.len() && !cap.time.is_empty());
+                assert!(cap.time.windows(2).all(|w| w[1] > w[0]), "accepted a time that does not increase");
+                for fs in [None, Some(330e3)] {
+                    match reduce(&cap, fs) {
+                        Ok(p) => {
+                            let _ = to_csv(&p, &cap.meta);
+                        }
+                        Err(e) => assert!(!e.to_string().trim().is_empty()),
+                    }
+                }
+            }
+            Err(e) => assert!(!e.to_string().trim().is_empty()),
+        }
+    }
+});
