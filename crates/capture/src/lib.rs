@@ -109,7 +109,8 @@ impl Capture {
         let preamble = body.split_inclusive('\n').take(PREAMBLE_LINES).position(|row| named(row).is_ok());
         let Some(skipped) = preamble else {
             let why = named(first).err().unwrap_or_default();
-            let hint = if map.is_empty() { "; an oscilloscope's export names its columns itself: map them, e.g. `--column vout=CH1 --column time=TIME`" } else { "" };
+            let missing = why.contains("is missing");
+            let hint = if map.is_empty() && missing { "; an oscilloscope's export names its columns itself: map them, e.g. `--column vout=CH1 --column time=TIME`" } else { "" };
             return Err(data_err(format!("line {header_line}: {why}{hint}")));
         };
         let body: &str = &body[body.split_inclusive('\n').take(skipped).map(str::len).sum::<usize>()..];
@@ -484,6 +485,8 @@ mod tests {
         let scaled = [map[0], map[1], Named { scale: Some(10.0), ..named("sw", "CH3") }];
         let read = Capture::parse_csv_with(&export(&divided, "", "TIME,CH1,CH3 [V]"), &scaled).unwrap();
         assert!(read.sw.unwrap().iter().zip(plain.sw.as_ref().unwrap()).all(|(a, b)| (a - b).abs() < 1e-12));
+        let e = Capture::parse_csv("time [V],vout\n0,1\n").unwrap_err().to_string();
+        assert!(e.contains("`V` is not a unit of `time`") && !e.contains("--column"), "a unit's error is no missing column: {e}");
         let e = Capture::parse_csv_with("time,vout\n0,1\n", &[named("vo", "CH1")]).unwrap_err().to_string();
         assert!(e.contains("`vo` is not a column of a capture"), "{e}");
         let e = Capture::parse_csv_with("time,vout\n0,1\n", &[Named { scale: Some(0.0), ..named("vout", "CH1") }]).unwrap_err().to_string();
