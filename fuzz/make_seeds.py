@@ -103,3 +103,5 @@ ROWS = [(i * 5e-7, 5.0 + 0.01 * (i % 20), 0.5 + 0.05 * (i % 20), 12.0 if i % 20 
 put("scope", "plain.csv", "# fs = 100000\ntime,vout,il,sw\n" + "".join(f"{t!r},{v!r},{c!r},{w!r}\n" for t, v, c, w in ROWS))
 put("scope", "tek.csv", 'Model,MSO54\nHorizontal Units,s\n"TIME","CH1","CH2","CH3"\nsecond,Volt,Volt,Volt\n'
     + "".join(f"{t!r},{v!r},{c / 10!r},{w!r}\n" for t, v, c, w in ROWS))
+put("scope", "rigol.csv", "X,CH1,CH2,CH3,Start,Increment,\nSequence,Volt,Volt,Volt,0.0,5e-07\n"
+    + "".join(f"{k},{v!r},{c!r},{w!r},\n" for k, (t, v, c, w) in enumerate(ROWS)))

@@ -1,7 +1,7 @@
 //! The oscilloscope-capture reader and its reduction to periods (`buckid convert`): any text,
-//! read as the contract has it and as a scope's export with its columns named, then reduced
-//! at a given switching frequency and written out, must give a result or an error with a
-//! message, never a panic.
+//! read as the contract has it and as a scope's export with its columns named (a Tektronix's
+//! and a Rigol's names), then reduced from its edges and at a given switching frequency and
+//! written out, must give a result or an error with a message, never a panic.
 #![no_main]
 
 use capture::{Capture, Named, reduce, to_csv};
@@ -15,7 +15,9 @@ fuzz_target!(
     let Ok(text) = std::str::from_utf8(data) else { return };
     let named = |column, header, scale| Named { column, header, scale };
     let scope = [named("time", "TIME", None), named("vout", "CH1", None), named("il", "CH2", Some(10.0)), named("sw", "CH3", None)];
-    for parsed in [Capture::parse_csv(text), Capture::parse_csv_with(text, &scope)] {
+    // A Rigol's names its samples' index `X`.
+    let rigol = [named("time", "X", None), named("vout", "CH1", None), named("sw", "CH3", None)];
+    for parsed in [Capture::parse_csv(text), Capture::parse_csv_with(text, &scope), Capture::parse_csv_with(text, &rigol)] {
         match parsed {
             Ok(cap) => {
                 assert!(cap.time.len() == cap.vout.len() && !cap.time.is_empty());

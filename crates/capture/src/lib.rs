@@ -55,6 +55,24 @@ pub struct Capture {
 const COLUMNS: [Column; 6] =
     [Column::required("time", "s"), Column::required("vout", "V"), Column::optional("il", "A"), Column::optional("sw", "V"), Column::optional("gate", "V"), Column::optional("vin", "V")];
 
+/// The `(start, increment)` of a time column that numbers the samples (`Sequence` in the units
+/// row `record`, at the time column `time`): a Rigol's export, whose `Start` and `Increment`
+/// columns hold them in that row. `None` for a time column in seconds.
+fn sample_sequence(headers: &[String], record: &csv::StringRecord, time: Option<usize>) -> Result<Option<(f64, f64)>, String> {
+    if !time.and_then(|i| record.get(i)).is_some_and(|u| u.eq_ignore_ascii_case("sequence")) {
+        return Ok(None);
+    }
+    let at = |name: &str| -> Result<f64, String> {
+        let field = headers.iter().position(|h| h.eq_ignore_ascii_case(name)).and_then(|i| record.get(i));
+        field.and_then(|v| v.parse::<f64>().ok()).filter(|v| v.is_finite()).ok_or_else(|| format!("the time column numbers the samples (`Sequence`) but the row has no `{name}` to time them by"))
+    };
+    let (start, increment) = (at("Start")?, at("Increment")?);
+    if increment <= 0.0 {
+        return Err(format!("the samples' `Increment` {increment:e} s is not positive"));
+    }
+    Ok(Some((start, increment)))
+}
+
 /// Lines an oscilloscope's preamble (its settings before the header row) may take.
 const PREAMBLE_LINES: usize = 64;
 
@@ -123,6 +141,8 @@ impl Capture {
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         let mut record = csv::StringRecord::new();
         let mut line = header_line;
+        // The time of a sample numbered in sequence: its start and increment (see `sample_sequence`).
+        let mut sequence: Option<(f64, f64)> = None;
         loop {
             line += 1;
             match reader.read_record(&mut record) {
@@ -133,6 +153,7 @@ impl Capture {
             // A row of units under the header (`second,Volt,Volt`): no field of it is a number.
             let units = line == header_line + 1 && index.iter().flatten().all(|f| record.get(f.index).is_some_and(|v| v.parse::<f64>().is_err()));
             if units {
+                sequence = sample_sequence(&headers, &record, index[0].map(|f| f.index)).map_err(|e| data_err(format!("line {line}: {e}")))?;
                 continue;
             }
             for (c, found) in index.iter().enumerate() {
@@ -147,6 +168,9 @@ impl Capture {
         }
         if cols[0].is_empty() {
             return Err(data_err("the file has a header but no data rows"));
+        }
+        if let Some((start, increment)) = sequence {
+            cols[0].iter_mut().for_each(|k| *k = start + *k * increment);
         }
         for n in map {
             if let (Some(k), Some(c)) = (n.scale, COLUMNS.iter().position(|c| c.name == n.column)) {
@@ -480,6 +504,15 @@ mod tests {
         // Unnamed, the export says what is missing and how to name it.
         let e = Capture::parse_csv(&export(&square, tek, "TIME,CH1,CH3")).unwrap_err().to_string();
         assert!(e.contains("line 1: required column `time` is missing") && e.contains("--column vout=CH1"), "{e}");
+        // A Rigol's: the samples numbered, their start and increment in the units row.
+        let rate = 9.73e6;
+        let rows: String = square.vout.iter().zip(square.sw.as_ref().unwrap()).enumerate().map(|(k, (v, w))| format!("{k},{v},{w},\n")).collect();
+        let rigol = format!("X,CH1,CH3,Start,Increment,\nSequence,Volt,Volt,{:e},{:e}\n{rows}", 1e-7, 1.0 / rate);
+        let read = Capture::parse_csv_with(&rigol, &[named("time", "X"), map[1], map[2]]).unwrap();
+        assert!(read.time.iter().zip(&plain.time).all(|(a, b)| (a - b).abs() < 1e-15), "the samples timed by start and increment");
+        assert_eq!((read.vout, read.sw), (plain.vout.clone(), plain.sw.clone()));
+        let e = Capture::parse_csv_with(&rigol.replace(",Increment,", ",Step,"), &[named("time", "X"), map[1], map[2]]).unwrap_err().to_string();
+        assert!(e.contains("line 2: the time column numbers the samples (`Sequence`) but the row has no `Increment`"), "{e}");
         // The switch node read through a 10:1 divider in volts: scaled, its unit set aside.
         let divided = Capture { sw: Some(square.sw.as_ref().unwrap().iter().map(|v| v / 10.0).collect()), ..square.clone() };
         let scaled = [map[0], map[1], Named { scale: Some(10.0), ..named("sw", "CH3") }];
