@@ -18,7 +18,8 @@ pub struct ConvertArgs {
     /// `vout=CH1`, `il=CH2`, `sw=CH3`, `time=TIME` (a unit in the header is kept: `CH1 [mV]`),
     /// `il=CH2*10` for a current read in volts (here across a 0.1 Ω shunt: 10 A per volt; the
     /// values as written times the scale, the header's unit set aside).
-    /// The scope's preamble before its header row, and a row of units after it, are skipped.
+    /// The scope's preamble before its header row, and a row of units after it, are skipped;
+    /// a Rigol's numbered samples (`time=X`) are timed by the `Start` and `Increment` there.
     #[arg(long = "column", value_name = "NAME=HEADER[*SCALE]", value_parser = column_name)]
     columns: Vec<(String, String, Option<f64>)>,
     /// Where to write the data-contract CSV.
