@@ -487,7 +487,8 @@ mod tests {
 
     /// Exports as oscilloscopes write them, their columns named with `--column`: a Tektronix
     /// MSO's (settings before the header row, quoted names), a Keysight InfiniiVision's (a row
-    /// of units under the header), and one in millivolts; each reads as the same capture.
+    /// of units under the header), one in millivolts, a Rigol's (numbered samples, timed by the
+    /// units row) and a switch node read through a divider; each reads as the same capture.
     #[test]
     fn an_oscilloscopes_export_reads_with_its_columns_named() {
         let square = square();
