@@ -29,16 +29,23 @@ VOUT_OFFSET = 0.010
 IL_GAIN, IL_OFFSET = 0.02, 0.040
 
 
-def _diagnose(buckid_bin, tmp_path, name, *probes):
-    """`buckid diagnose`'s JSON for a harness capture read through `probes` (harness options)."""
-    data, out = tmp_path / f"{name}.csv", tmp_path / f"{name}.json"
-    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--cl", str(CL), "--io", "3",
-                    "--periods", "2000", "--adc-delay", "92e-9", "--noise-vout", "2e-3", "--noise-il", "20e-3",
-                    *probes, "--out", str(data)], check=True, capture_output=True, timeout=600)
+def _diagnosis(buckid_bin, data):
+    """`buckid diagnose --nominal switched`'s JSON for the data file `data`."""
+    out = data.with_suffix(".json")
     proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(out.read_text())
+
+
+def _diagnose(buckid_bin, tmp_path, name, *options):
+    """`buckid diagnose`'s JSON for a harness capture with further harness `options` (its probes'
+    errors; an `--adc-delay` or `--dead-time` of their own, which override the defaults here)."""
+    data = tmp_path / f"{name}.csv"
+    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--cl", str(CL), "--io", "3",
+                    "--periods", "2000", "--adc-delay", "92e-9", "--noise-vout", "2e-3", "--noise-il", "20e-3",
+                    *options, "--out", str(data)], check=True, capture_output=True, timeout=600)
+    return _diagnosis(buckid_bin, data)
 
 
 @needs_ngspice
@@ -68,14 +75,7 @@ def test_a_reading_in_the_off_time_of_a_harness_capture_is_found_and_cl_holds(bu
     With the instant capped at half the period it was taken for the readings a period late
     with a gain error and three drifts, Cl 6.21 [6.09, 6.31] uF against 4.7 uF."""
     period = 1 / 330e3
-    data, out = tmp_path / "late.csv", tmp_path / "late.json"
-    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--cl", str(CL), "--io", "3",
-                    "--periods", "2000", "--adc-delay", str(0.9 * period), "--noise-vout", "2e-3", "--noise-il", "20e-3",
-                    "--out", str(data)], check=True, capture_output=True, timeout=600)
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    dx = json.loads(out.read_text())
+    dx = _diagnose(buckid_bin, tmp_path, "late", "--adc-delay", str(0.9 * period))
     names = [e["name"] for e in dx["selected"]]
     assert names == ["sample_delay"], (names, dx["selection_ended"])
     instant = dx["selected"][0]["params"]["sample_delay"]
@@ -93,14 +93,7 @@ def test_a_reading_in_the_off_time_behind_a_dead_time_is_found_and_cl_holds(buck
     dead time and ends at the floor. Before: C and Rc drifts with Cl 20.6 uF not identified
     (0.65), a gain error and L -1.3 % with Cl 7.5 [6.1, 8.3] uF (0.85), against 4.7 uF."""
     period = 1 / 330e3
-    data, out = tmp_path / "late.csv", tmp_path / "late.json"
-    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--cl", str(CL), "--io", "3",
-                    "--periods", "2000", "--adc-delay", str(fraction * period), "--dead-time", "30e-9",
-                    "--noise-vout", "2e-3", "--noise-il", "20e-3", "--out", str(data)], check=True, capture_output=True, timeout=600)
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    dx = json.loads(out.read_text())
+    dx = _diagnose(buckid_bin, tmp_path, "late", "--adc-delay", str(fraction * period), "--dead-time", "30e-9")
     selected = {e["name"]: e for e in dx["selected"]}
     assert "sample_delay" in selected and "dead_time" in selected, (list(selected), dx["selection_ended"])
     assert abs(selected["sample_delay"]["params"]["sample_delay"] / (fraction * period) - 1) < 0.01, selected["sample_delay"]
@@ -153,12 +146,9 @@ def _read_at(own_capture, buckid_bin, tmp_path, instant):
     vout = np.interp(at, cap[:, 0], cap[:, 1]) + rng.normal(0, 2e-3, len(at))
     il = np.interp(at, cap[:, 0], cap[:, 2]) + rng.normal(0, 10e-3, len(at))
     body = [f"{t!r},{d!r},{u!r},{i!r},{v:.7g},{c:.6g}" for (t, d, u, i, *_), v, c, k in zip(rows.tolist(), vout, il, keep) if k]
-    data, out = tmp_path / "late.csv", tmp_path / "late.json"
+    data = tmp_path / "late.csv"
     data.write_text("\n".join(meta + ["time,duty,vin,io,vout,il"] + body) + "\n")
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(out.read_text())
+    return _diagnosis(buckid_bin, data)
 
 
 @needs_ngspice

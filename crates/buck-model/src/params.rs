@@ -254,6 +254,12 @@ impl Params {
         1.0 / self.fs
     }
 
+    /// The instant after a period start of length `period` at which a period of duty `duty` is
+    /// read: `sample_delay + sample_duty_share·(duty − ½)·period` [s].
+    pub fn sample_instant(&self, duty: f64, period: f64) -> f64 {
+        self.sample_delay + self.sample_duty_share * (duty - 0.5) * period
+    }
+
     /// Whether the low side is a diode (asynchronous buck): `dcm` or a positive `diode_drop`.
     pub fn asynchronous(&self) -> bool {
         self.dcm || self.diode_drop > 0.0

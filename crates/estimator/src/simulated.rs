@@ -225,7 +225,7 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
     conv.set_state(State { il: il0 + dil, vc: v0, vo: v0, ic: 0.0 });
     // The instant of each period's reading: fixed, or moving with its duty (an ADC triggered
     // from the PWM).
-    let instant = |k: usize| p.sample_delay + p.sample_duty_share * (data.duty[k] - 0.5) * period;
+    let instant = |k: usize| p.sample_instant(data.duty[k], period);
     if let Some(late) = (0..data.len()).map(instant).find(|late| !(0.0..MAX_SAMPLE_DELAY * period).contains(late)) {
         let lock = if p.sample_duty_share == 0.0 { String::new() } else { format!(" (sample_delay {:e} s plus {}·(D − ½)·T)", p.sample_delay, p.sample_duty_share) };
         return Err(EstimatorError::Config(format!("a sampling instant {late:e} s{lock} must lie in [0, {MAX_SAMPLE_DELAY}·T)")));

@@ -824,6 +824,11 @@ impl SimulatedEffect {
         starts
     }
 
+    /// Whether `f` is one of its free parameters.
+    fn frees(&self, f: Free) -> bool {
+        self.extra.iter().any(|&(e, _)| e == f)
+    }
+
     /// Its parameters and their CI95 as `cand` fitted them (`dcm` as 1).
     pub fn report(&self, cand: &Candidate) -> Result<Reported, String> {
         let mut params = BTreeMap::new();
@@ -840,15 +845,15 @@ impl SimulatedEffect {
         // (no interval of its own: it is not the effect), where the data has il to fit it on (a
         // least-squares calibration is never exactly none; without il it is, and says nothing).
         let p = &cand.fit.params;
-        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) && (p.il_offset != 0.0 || p.il_gain_error != 0.0) {
+        if self.frees(Free::SampleDelay) && (p.il_offset != 0.0 || p.il_gain_error != 0.0) {
             params.extend(il_calibration(&cand.fit.params));
         }
         // A reading locked to the PWM is reported with its lock (held, like the scheme it is).
-        if self.extra.iter().any(|&(f, _)| f == Free::SampleDelay) && p.sample_duty_share != 0.0 {
+        if self.frees(Free::SampleDelay) && p.sample_duty_share != 0.0 {
             params.insert("sample_duty_share".to_string(), p.sample_duty_share);
         }
         // A bias law is read against the voltages it was fitted for (see `bias_reference`).
-        if self.extra.iter().any(|&(f, _)| f == Free::CapDcBias) {
+        if self.frees(Free::CapDcBias) {
             params.insert("cap_rated_voltage".to_string(), cand.fit.params.cap_rated_voltage);
             params.insert("cl_reference_voltage".to_string(), cand.fit.params.cl_reference_voltage);
         }
@@ -965,8 +970,8 @@ impl std::fmt::Display for ClCheck {
 /// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
 /// PWM, its earliest at the period start (a fixed instant's log scale never reaches zero).
 fn instant_on_bound(p: &Params, duty_range: [f64; 2]) -> bool {
-    let at = |duty: f64| p.sample_delay + p.sample_duty_share * (duty - 0.5) * p.period();
-    let (earliest, latest) = (at(duty_range[0]).min(at(duty_range[1])), at(duty_range[0]).max(at(duty_range[1])));
+    let [a, b] = duty_range.map(|duty| p.sample_instant(duty, p.period()));
+    let (earliest, latest) = (a.min(b), a.max(b));
     latest >= MAX_SAMPLE_DELAY * p.period() * (1.0 - AT_BOUND) || (p.sample_duty_share != 0.0 && earliest <= AT_BOUND * p.period())
 }
 
