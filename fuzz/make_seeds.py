@@ -105,3 +105,9 @@ put("scope", "tek.csv", 'Model,MSO54\nHorizontal Units,s\n"TIME","CH1","CH2","CH
     + "".join(f"{t!r},{v!r},{c / 10!r},{w!r}\n" for t, v, c, w in ROWS))
 put("scope", "rigol.csv", "X,CH1,CH2,CH3,Start,Increment,\nSequence,Volt,Volt,Volt,0.0,5e-07\n"
     + "".join(f"{k},{v!r},{c!r},{w!r},\n" for k, (t, v, c, w) in enumerate(ROWS)))
+# One channel per file: a LeCroy's trace (notes, then `Time,Ampl`) and a Tektronix TDS's (no
+# header row, settings beside the samples).
+put("scope", "lecroy.txt", "LECROYWR104Xi,51234,Waveform\nSegments,1,SegmentSize,60\nSegment,TrigTime,TimeSinceSegment1\n"
+    "#1,27-Nov-2026 10:11:12,0\nTime,Ampl\n" + "".join(f"{t!r},{w!r}\n" for t, v, c, w in ROWS))
+TDS = ["Record Length,6.000000e+01,", "Sample Interval,5.000000e-07,", "Trigger Point,0.0e+00,", ",,", "Source,CH3,", "Vertical Units,V,"]
+put("scope", "tds.csv", "".join(f"{TDS[k] if k < len(TDS) else ',,'},{t!r},{w!r},\r\n" for k, (t, v, c, w) in enumerate(ROWS)))

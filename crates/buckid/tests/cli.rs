@@ -741,3 +741,47 @@ fn convert_reads_an_oscilloscopes_export_with_its_columns_named() {
     assert_clean_failure(&buckid(&["convert", "--scope", tek.to_str().unwrap(), "--out", named.to_str().unwrap(), "--column", "vout"]), "is not NAME=HEADER");
     assert_clean_failure(&buckid(&["convert", "--scope", tek.to_str().unwrap(), "--out", named.to_str().unwrap(), "--column", "il=CH2*ten"]), "NAME=HEADER*SCALE");
 }
+
+/// The committed ngspice scope capture saved one channel per file, as oscilloscopes also save
+/// them: `vout` as a LeCroy writes a trace (its notes, then `Time,Ampl`), the switch node as a
+/// Tektronix TDS does (no header row; each row its settings' label, value and unit, then the
+/// sample), and `il` read in volts across a 0.1 Ω shunt. `convert --channel` writes the same
+/// rows as from the whole capture, with `--meta` at the top; bad channels fail naming why.
+#[test]
+fn convert_reads_each_channel_from_a_file_of_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let scope = root().join("tests/fixtures/capture/sync_scope.csv");
+    let text = std::fs::read_to_string(&scope).unwrap();
+    let samples: Vec<Vec<f64>> = text.lines().filter(|l| !l.starts_with('#')).skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let lecroy = format!("LECROYWR104Xi,51234,Waveform\nSegments,1,SegmentSize,{}\nSegment,TrigTime,TimeSinceSegment1\n#1,27-Nov-2026 10:11:12,0\nTime,Ampl\n", samples.len())
+        + &samples.iter().map(|f| format!("{:e},{}\n", f[0], f[1])).collect::<String>();
+    let notes = ["Record Length,1.769100e+04,", "Sample Interval,1.027749e-08,", "Trigger Point,0.0e+00,", ",,", "Source,CH3,", "Vertical Units,V,", "Horizontal Units,s,"];
+    let tds: String = samples.iter().enumerate().map(|(k, f)| format!("{},{:e},{},\r\n", notes.get(k).unwrap_or(&",,"), f[0], f[3])).collect();
+    let shunt: String = "time,value\n".to_string() + &samples.iter().map(|f| format!("{:e},{:e}\n", f[0], f[2] / 10.0)).collect::<String>();
+    let files = [("C1--trace--00000.txt", lecroy), ("F0000CH3.CSV", tds), ("shunt.csv", shunt)];
+    for (name, body) in &files {
+        std::fs::write(dir.path().join(name), body).unwrap();
+    }
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (plain, split) = (dir.path().join("plain.csv"), dir.path().join("split.csv"));
+    assert!(buckid(&["convert", "--scope", scope.to_str().unwrap(), "--out", plain.to_str().unwrap()]).status.success());
+    let channels = [format!("vout={}", at(files[0].0)), format!("sw={}", at(files[1].0)), format!("il={}*10", at(files[2].0))];
+    let args = ["convert", "--channel", &channels[0], "--channel", &channels[1], "--channel", &channels[2], "--meta", "U=12", "--out", split.to_str().unwrap()];
+    let o = buckid(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let written = std::fs::read_to_string(&split).unwrap();
+    assert!(written.lines().any(|l| l == "# U = 12"), "{written}");
+    let body = |t: &str| t.lines().filter(|l| !l.starts_with('#')).map(str::to_string).collect::<Vec<_>>();
+    let (a, b) = (body(&std::fs::read_to_string(&plain).unwrap()), body(&written));
+    assert_eq!((a.len(), &a[0]), (b.len(), &b[0]));
+    for (x, y) in a.iter().zip(&b).skip(1) {
+        let nums = |r: &str| r.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>();
+        assert!(nums(x).iter().zip(nums(y)).all(|(p, q)| (p - q).abs() <= 1e-9 * p.abs().max(1.0)), "{x} against {y}");
+    }
+    let out = ["--out", split.to_str().unwrap()];
+    assert_clean_failure(&buckid(&[&["convert", "--channel", &channels[1]][..], &out].concat()), "no `vout` channel");
+    assert_clean_failure(&buckid(&[&["convert", "--channel", "vout=missing.txt"][..], &out].concat()), "reading missing.txt");
+    assert_clean_failure(&buckid(&[&["convert", "--channel", &channels[0], "--scope", scope.to_str().unwrap()][..], &out].concat()), "cannot be used with");
+    assert_clean_failure(&buckid(&[&["convert", "--channel", &format!("vout={}", plain.display())][..], &out].concat()), "a file of several channels");
+    assert_clean_failure(&buckid(&[&["convert", "--scope", scope.to_str().unwrap(), "--meta", "U"][..], &out].concat()), "is not KEY=VALUE");
+}

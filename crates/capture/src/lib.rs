@@ -11,11 +11,18 @@
 //! without edges), `vout`/`il` at the start (a line through the quiet stretch before the edge,
 //! extrapolated to it: see `at_start`), `vout_avg`/`il_avg` by the trapezoid rule over the
 //! period, `vin` as the period average when recorded.
+//!
+//! A capture comes as one file of all its channels ([`Capture::parse_csv`], an oscilloscope's
+//! export with its columns named: [`Capture::parse_csv_with`]) or as one file per channel
+//! ([`Trace`], [`Capture::from_traces`]).
 #![forbid(unsafe_code)]
 
 use std::collections::BTreeMap;
 
 use csv_header::Column;
+
+mod trace;
+pub use trace::Trace;
 
 /// What went wrong reading or reducing a capture.
 #[derive(Debug, thiserror::Error)]

@@ -140,8 +140,14 @@ pub fn value(field: &str, name: &str, found: Found, delimiter: u8) -> Result<f64
     Ok(found.si(v))
 }
 
-/// A field as a number, a decimal comma read as a point where the delimiter is not a comma.
-fn number(field: &str, delimiter: u8) -> Option<f64> {
+/// A field as a number, a decimal comma read as a point where the delimiter is not a comma
+/// (`None` where it is not a number; `nan` and `inf` are numbers here, not finite ones).
+///
+/// ```
+/// assert_eq!(csv_header::number("0,25", b';'), Some(0.25));
+/// assert_eq!(csv_header::number("0,25", b','), None);
+/// ```
+pub fn number(field: &str, delimiter: u8) -> Option<f64> {
     match field.parse() {
         Ok(v) => Some(v),
         Err(_) if delimiter != b',' && field.matches(',').count() == 1 && !field.contains('.') => field.replace(',', ".").parse().ok(),
