@@ -104,9 +104,11 @@ pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // The plant samples at the period start: a late acquisition comes from the harness only.
     // A diode's slope resistance, the switch node's capacitance and unequal switches refine a
     // diode, a dead time or the switches' resistance; alone they change nothing. The plant's
-    // readings are exact: a sensor's calibration comes from the harness only.
-    std::iter::once("none")
-        .chain(gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches" | "sensor_offset" | "sensor_gain")))
+    // readings are exact: a sensor's calibration comes from the harness only, an anti-alias
+    // filter from the third generator.
+    std::iter::once("none").chain(
+        gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "sensor_filter" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches" | "sensor_offset" | "sensor_gain")),
+    )
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).

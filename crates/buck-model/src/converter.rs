@@ -380,6 +380,13 @@ impl Converter {
         cx[0] * self.x[0] + cx[1] * self.x[1] + cx[2] * self.x[2] + cx[3] * self.x[3] + d * self.io_held
     }
 
+    /// `∫ vout dt` since the current period started [V·s] (exact, as `vout_avg` is over a whole
+    /// period).
+    pub fn vout_integral(&self) -> f64 {
+        let (cx, d) = self.vout_map;
+        cx[0] * self.z[0] + cx[1] * self.z[1] + cx[2] * self.z[2] + cx[3] * self.z[3] + d * self.io_integral
+    }
+
     /// Current outputs.
     pub fn outputs(&self) -> Outputs {
         let (cx, d) = self.vout_map;

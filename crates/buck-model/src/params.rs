@@ -99,6 +99,11 @@ pub struct Params {
     /// with 3T/4: the middle of the off-time (where controllers read the average inductor
     /// current clear of the edges). 0 (the default): a fixed instant. Not an FMU parameter.
     pub sample_duty_share: f64,
+    /// Time constant of a first-order low-pass the `vout` reading passes through before it is
+    /// sampled [s]: the RC anti-alias filter in front of a controller's ADC, commonly with its
+    /// corner near half the switching frequency (τ ≈ T/π). 0 (the default): read directly. Not
+    /// a circuit value and not an FMU parameter (`sensor_filter` effect).
+    pub vout_filter: f64,
     /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
     /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like
     /// `sample_delay`.
@@ -188,6 +193,7 @@ impl Default for Params {
             rload: 0.0,
             sample_delay: 0.0,
             sample_duty_share: 0.0,
+            vout_filter: 0.0,
             vout_offset: 0.0,
             vout_gain_error: 0.0,
             il_offset: 0.0,

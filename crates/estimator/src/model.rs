@@ -142,6 +142,9 @@ pub enum Free {
     /// `sample_delay`: the outputs sampled this long after each period start
     /// ([`Structure::Simulated`] only).
     SampleDelay,
+    /// `vout_filter`: the `vout` reading through a first-order low-pass of this time constant
+    /// ([`Structure::Simulated`] only).
+    VoutFilter,
     /// `vout_offset`: the `vout` reading's zero error, signed ([`Structure::Simulated`] only).
     VoutOffset,
     /// `vout_gain_error`: the `vout` reading's relative gain error, signed
@@ -170,6 +173,7 @@ impl Free {
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
             Free::SampleDelay => "sample_delay",
+            Free::VoutFilter => "vout_filter",
             Free::VoutOffset => "vout_offset",
             Free::VoutGainError => "vout_gain_error",
         }
@@ -284,6 +288,7 @@ impl Free {
             Free::Isat => p.isat,
             Free::CapDcBias => p.cap_dc_bias,
             Free::SampleDelay => p.sample_delay,
+            Free::VoutFilter => p.vout_filter,
             Free::VoutOffset => p.vout_offset,
             Free::VoutGainError => p.vout_gain_error,
         }
@@ -309,6 +314,7 @@ impl Free {
             Free::Isat => p.isat = value,
             Free::CapDcBias => p.cap_dc_bias = value,
             Free::SampleDelay => p.sample_delay = value,
+            Free::VoutFilter => p.vout_filter = value,
             Free::VoutOffset => p.vout_offset = value,
             Free::VoutGainError => p.vout_gain_error = value,
         }
@@ -479,7 +485,7 @@ impl Model {
         if free.is_empty() {
             return Err(EstimatorError::Config("at least one free parameter is needed".into()));
         }
-        if let Some(f) = free.iter().find(|f| **f == Free::SampleDelay) {
+        if let Some(f) = free.iter().find(|f| matches!(f, Free::SampleDelay | Free::VoutFilter)) {
             return Err(EstimatorError::Config(format!("the free parameter `{}` is modelled by the simulated structure only, not by `{}`", f.name(), structure.name())));
         }
         if structure != Structure::Exact

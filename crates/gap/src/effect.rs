@@ -13,7 +13,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 18] = [
+pub const EFFECTS: [&str; 19] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -27,6 +27,7 @@ pub const EFFECTS: [&str; 18] = [
     "cap_dc_bias",
     "param_drift",
     "sample_delay",
+    "sensor_filter",
     "diode_resistance",
     "switch_node_capacitance",
     "unequal_switches",
@@ -740,7 +741,7 @@ pub(crate) const DELAYS: [isize; 3] = [-1, 1, 2];
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values (in units
 /// of [`start_unit`]: a time as a fraction of the period, a load ESR as one of C's), and whether
 /// the effect switches the half bridge to a diode low side (`dcm`).
-pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
+pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 11] = [
     // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
     // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], also_locked: &[], dcm: false },
@@ -766,6 +767,10 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
         also_locked: &[(1.0 / 4.0, 0.5), (3.0 / 4.0, 0.5), (1.0 / 2.0, 1.0)],
         dcm: false,
     },
+    // Nor this: the vout reading through an RC anti-alias filter before its ADC (a controller's
+    // sense path, its corner commonly near half the switching frequency: τ ≈ T/π), from a tenth
+    // and a third of the period.
+    SimulatedEffect { name: "sensor_filter", extra: &[(Free::VoutFilter, 0.1)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false },
     // Not in the design table either: the vout reading's calibration, a probe's or an ADC's
     // zero error and a divider's or an attenuator's gain error (linear in the reading: one
     // start each, a small step away from zero so the screen sees its direction).
@@ -779,7 +784,7 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 10] = [
 /// what they are at any scale).
 fn start_unit(f: Free, p: &Params) -> f64 {
     match f {
-        Free::DeadTime | Free::SampleDelay => p.period(),
+        Free::DeadTime | Free::SampleDelay | Free::VoutFilter => p.period(),
         Free::LoadEsr => p.rc,
         _ => 1.0,
     }
@@ -966,6 +971,11 @@ impl std::fmt::Display for ClCheck {
     }
 }
 
+/// Longest time constant of the `sensor_filter` effect, in periods: an anti-alias filter slower
+/// than that (its corner below a twelfth of the switching frequency) would average over
+/// periods, not filter the ripple; a fit that runs there stands in for something else.
+pub(crate) const MAX_FILTER: f64 = 2.0;
+
 /// Whether the instant of a reading in the circuit `p` ended on a bound of its range at the
 /// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
 /// PWM, its earliest at the period start (a fixed instant's log scale never reaches zero).
@@ -1002,7 +1012,8 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let cl_on_bound = cl_on(&t.cand);
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
-        || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range));
+        || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range))
+        || t.params.get(Free::VoutFilter.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND));
     let fit = EffectFit {
         name,
         params: t.params,

@@ -17,8 +17,14 @@ use nalgebra::{DMatrix, DVector};
 
 /// The effects linear at zero, with the magnitude of the finite-difference probe (small against
 /// the design table's range, large against rounding).
-const LINEAR_AT_ZERO: [(&str, Free, f64); 5] =
-    [("dead_time", Free::DeadTime, 2e-9), ("load_esr", Free::LoadEsr, 2e-3), ("esl", Free::Esl, 0.1e-9), ("cap_dc_bias", Free::CapDcBias, 0.02), ("sample_delay", Free::SampleDelay, 2e-9)];
+const LINEAR_AT_ZERO: [(&str, Free, f64); 6] = [
+    ("dead_time", Free::DeadTime, 2e-9),
+    ("load_esr", Free::LoadEsr, 2e-3),
+    ("esl", Free::Esl, 0.1e-9),
+    ("cap_dc_bias", Free::CapDcBias, 0.02),
+    ("sample_delay", Free::SampleDelay, 2e-9),
+    ("sensor_filter", Free::VoutFilter, 2e-9),
+];
 
 /// Upper limits by effect name, on the first `n_est` samples of `data`, for the circuit
 /// `nominal` (Cl as fitted) with sensor noise `sigma` [V]; effects whose simulation fails are

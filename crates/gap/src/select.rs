@@ -240,7 +240,7 @@ impl Stack {
         // have drifted), read as the data was taken (a late reading, the other calibration): on
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
         // knee in DCM took a 2 % gain error on top of a diode drop).
-        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || calibrates_reading(n));
+        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "sensor_filter" | "param_drift") || calibrates_reading(n));
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         let in_model = |name: &str| has(name) || (diode && DIODE_TOPOLOGY.contains(&name));
         for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && (as_designed || !calibrates_reading(e.name))) {

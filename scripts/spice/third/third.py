@@ -1518,6 +1518,9 @@ def parser():
     add("--no-il", action="store_true", help="omit the il column (a vout-only capture)")
     add("--noise-scale", type=float, default=1.0,
         help="scale the drawn sensor noise (0.1: a bench ten times quieter, e.g. an averaging scope)")
+    add("--aa-tau", type=float,
+        help="the vout reading's RC anti-alias filter, its time constant as a fraction of the period "
+             "(overrides the draw; 0 = none)")
     add("--periods", type=int, default=3001)
     add("--out", default="-", help="CSV file ('-' = stdout)")
     add("--truth", help="JSON file with everything the run used")
@@ -1529,6 +1532,8 @@ def main(argv=None):
     a = parser().parse_args(argv)
     c = draw(a.family, a.kind, a.seed, effect=a.effect, with_il=False if a.no_il else None)
     c = quieter(c, a.noise_scale)
+    if a.aa_tau is not None:
+        c["acq"]["aa_tau"] = a.aa_tau / c["nominal"]["fs"]
     text, truth = generate(c, a.periods, a.workdir)
     if a.out == "-":
         sys.stdout.write(text)
