@@ -466,28 +466,35 @@ fn read_late(p: Params, late: usize) -> DataSet {
     read_at(p, |_| late)
 }
 
-/// [`read_late`] with each period's reading `late(duty)` substeps of 100 after its start (an
-/// ADC triggered from the PWM).
-fn read_at(p: Params, late: impl Fn(f64) -> usize) -> DataSet {
+/// `p`'s record and its converter started at the record's first inputs, with the noise its
+/// readings take (2 mV on vout, 5 mA on il, seeded), for [`read_at`] and [`read_filtered`].
+fn reader(p: Params) -> (DataSet, Converter, impl FnMut() -> (f64, f64)) {
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
-    let substeps = 100;
-    let mut d = data(plant(p, Mode::Switched));
+    let d = data(plant(p, Mode::Switched));
     let mut c = plant(p, Mode::Switched);
-    let period = 1.0 / p.fs;
     c.set(VarId::Duty, d.duty[0]).unwrap();
     c.set(VarId::Io, d.io[0]).unwrap();
     c.initialize();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     let (noise_vout, noise_il) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 5e-3).unwrap());
+    (d, c, move || (noise_vout.sample(&mut rng), noise_il.sample(&mut rng)))
+}
+
+/// [`read_late`] with each period's reading `late(duty)` substeps of 100 after its start (an
+/// ADC triggered from the PWM).
+fn read_at(p: Params, late: impl Fn(f64) -> usize) -> DataSet {
+    let substeps = 100;
+    let period = 1.0 / p.fs;
+    let (mut d, mut c, mut noise) = reader(p);
     let mut il = vec![0.0; d.len()];
     for ((duty, vout), il) in d.duty.iter().zip(d.vout.iter_mut()).zip(il.iter_mut()) {
         c.set(VarId::Duty, *duty).unwrap();
         let late = late(*duty);
         for s in 0..substeps {
             if s == late {
-                *vout = c.outputs().vout + noise_vout.sample(&mut rng);
-                *il = c.state().il + noise_il.sample(&mut rng);
+                let (nv, ni) = noise();
+                (*vout, *il) = (c.outputs().vout + nv, c.state().il + ni);
             }
             c.step(period / substeps as f64).unwrap();
         }
@@ -570,22 +577,14 @@ fn a_reading_locked_to_the_pwm_is_found_with_its_lock() {
 /// (an anti-alias filter before a controller's ADC), il directly, with the noise of
 /// [`read_at`]: the filter integrated on 1000 steps a period, exactly for a line through each.
 fn read_filtered(p: Params, tau: f64) -> DataSet {
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
     let substeps = 1000;
-    let mut d = data(plant(p, Mode::Switched));
-    let mut c = plant(p, Mode::Switched);
     let h = 1.0 / p.fs / substeps as f64;
-    c.set(VarId::Duty, d.duty[0]).unwrap();
-    c.set(VarId::Io, d.io[0]).unwrap();
-    c.initialize();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let (noise_vout, noise_il) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 5e-3).unwrap());
+    let (mut d, mut c, mut noise) = reader(p);
     let mut il = vec![0.0; d.len()];
     let (decay, mut filtered) = ((-h / tau).exp(), c.outputs().vout);
     for ((duty, vout), il) in d.duty.iter().zip(d.vout.iter_mut()).zip(il.iter_mut()) {
-        *vout = filtered + noise_vout.sample(&mut rng);
-        *il = c.state().il + noise_il.sample(&mut rng);
+        let (nv, ni) = noise();
+        (*vout, *il) = (filtered + nv, c.state().il + ni);
         c.set(VarId::Duty, *duty).unwrap();
         for _ in 0..substeps {
             let v0 = c.outputs().vout;
