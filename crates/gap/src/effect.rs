@@ -417,6 +417,13 @@ impl EffectFit {
         calibrates_reading(self.name)
     }
 
+    /// Whether it is named after the circuit's explanations ([`crate::select::best_material`]):
+    /// what the vout reading does (its calibration, its filter) rather than the circuit, unless
+    /// it explains what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.
+    pub(crate) fn last_resort(&self) -> bool {
+        (self.calibrates_reading() || self.name == "sensor_filter") && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
+    }
+
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where
     /// it is material there too, a vout-only effect such as an ESL may fit `vout` as well, and
     /// only il tells them apart).
@@ -484,6 +491,10 @@ fn on_bound(name: &str, value: f64) -> bool {
 fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
     on_bound("Cl", estimate) || buck_model::variables::real_range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
 }
+
+/// Share of the gap left above the floor [%] that a reading's effect must close to be named
+/// before the circuit's explanations: all of it, but for the floor's own uncertainty.
+pub(crate) const EXPLAINS_ALL: f64 = 95.0;
 
 /// Smallest share of the gap above the floor, left by the model an effect extends, that the
 /// effect must close to be material [%].
@@ -1077,14 +1088,11 @@ mod tests {
         assert!(!instant_on_bound(&reading(1e-6, 0.0), duties));
     }
 
-    /// A fit judged against a model in a worse minimum than another fit of it (`rms_best`):
-    /// what it closes is of the better one's gap. One worse than that is no finding; judged
-    /// against the better fit itself, nothing changes.
-    #[test]
-    fn a_fit_worse_than_the_better_nominal_is_never_material() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, duty_range: [0.4, 0.6] };
-        let fit = |rms_after: f64, against: f64| EffectFit {
-            name: "dcm",
+    /// A significant, material finding `name` on `baseline` leaving `rms_after` of the model it
+    /// extends, which left `against` (held-out RMS).
+    fn finding(name: &'static str, baseline: &Baseline, rms_after: f64, against: f64) -> EffectFit {
+        EffectFit {
+            name,
             params: BTreeMap::new(),
             ci95: BTreeMap::new(),
             cl: ClMove::at(1e-6, [0.9e-6, 1.1e-6], 1e-6),
@@ -1110,7 +1118,16 @@ mod tests {
             ruled_out_above: None,
             cl_test_failed_without: None,
             residual: Vec::new(),
-        };
+        }
+    }
+
+    /// A fit judged against a model in a worse minimum than another fit of it (`rms_best`):
+    /// what it closes is of the better one's gap. One worse than that is no finding; judged
+    /// against the better fit itself, nothing changes.
+    #[test]
+    fn a_fit_worse_than_the_better_nominal_is_never_material() {
+        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, duty_range: [0.4, 0.6] };
+        let fit = |rms_after: f64, against: f64| finding("dcm", &baseline, rms_after, against);
         // 97 % of a reference's 2 V gap, 29 % worse than the grey-box nominal's 0.2 V.
         let mut worse = fit(0.236, 2.0);
         assert!(worse.closed_of_remaining.is_some_and(|c| c > 95.0));
@@ -1125,6 +1142,21 @@ mod tests {
         let before = same.closed_of_remaining;
         same.rebase(&baseline, 0.2, 0.3);
         assert_eq!(same.closed_of_remaining, before);
+    }
+
+    /// What the reading does (its calibration, its filter) is named after the circuit's
+    /// explanations unless it explains what is left: a filter closing 60 % of the gap left waits
+    /// for the circuit, one closing 99 % does not; a circuit effect never waits.
+    #[test]
+    fn a_readings_effect_waits_for_the_circuit_unless_it_explains_all() {
+        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, duty_range: [0.4, 0.6] };
+        let part = (0.4f64 * 0.2f64.powi(2) + 0.6 * 4e-3f64.powi(2)).sqrt();
+        let all = (0.01f64 * 0.2f64.powi(2) + 0.99 * 4e-3f64.powi(2)).sqrt();
+        for name in ["sensor_filter", "sensor_offset", "sensor_gain"] {
+            assert!(finding(name, &baseline, part, 0.2).last_resort(), "{name} closing 60 %");
+            assert!(!finding(name, &baseline, all, 0.2).last_resort(), "{name} closing 99 %");
+        }
+        assert!(!finding("load_esr", &baseline, part, 0.2).last_resort());
     }
 
     /// A gap is material only on both scales: above the floor's own uncertainty, and above
