@@ -374,28 +374,32 @@ impl Converter {
         self.digital.restart(d0, self.vout(), x0[0]);
     }
 
+    /// `cx·x + d·io` (the converter's `vout_map`): `vout` of a state, or its integral or mean of a
+    /// state's.
+    fn through_vout_map(&self, x: &Vector4<f64>, io: f64) -> f64 {
+        let (cx, d) = self.vout_map;
+        cx[0] * x[0] + cx[1] * x[1] + cx[2] * x[2] + cx[3] * x[3] + d * io
+    }
+
     /// Output (node) voltage of the current state with the load current of the latest piece.
     fn vout(&self) -> f64 {
-        let (cx, d) = self.vout_map;
-        cx[0] * self.x[0] + cx[1] * self.x[1] + cx[2] * self.x[2] + cx[3] * self.x[3] + d * self.io_held
+        self.through_vout_map(&self.x, self.io_held)
     }
 
     /// `∫ vout dt` since the current period started [V·s] (exact, as `vout_avg` is over a whole
     /// period).
     pub fn vout_integral(&self) -> f64 {
-        let (cx, d) = self.vout_map;
-        cx[0] * self.z[0] + cx[1] * self.z[1] + cx[2] * self.z[2] + cx[3] * self.z[3] + d * self.io_integral
+        self.through_vout_map(&self.z, self.io_integral)
     }
 
     /// Current outputs.
     pub fn outputs(&self) -> Outputs {
-        let (cx, d) = self.vout_map;
         let avg = &self.last_average;
         Outputs {
             vout: self.vout(),
             il: self.x[0],
             vc: self.x[1],
-            vout_avg: cx[0] * avg[0] + cx[1] * avg[1] + cx[2] * avg[2] + cx[3] * avg[3] + d * self.last_io_average,
+            vout_avg: self.through_vout_map(avg, self.last_io_average),
             il_avg: avg[0],
             duty_applied: self.digital.applied(),
             vout_adc: self.digital.reading().0,

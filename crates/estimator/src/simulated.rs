@@ -286,14 +286,15 @@ impl Reading {
             conv.step(dt)?;
             let v1 = conv.outputs().vout;
             // At the period's end the integral restarts: the period's own is its mean times T.
-            let integral1 = if to_period_end && k + 1 == n { conv.outputs().vout_avg * self.period } else { conv.vout_integral() };
+            let ends_period = to_period_end && k + 1 == n;
+            let integral1 = if ends_period { conv.outputs().vout_avg * self.period } else { conv.vout_integral() };
             let (rise, above) = (v1 - v0, (integral1 - integral0) / dt - v0);
             let c = 3.0 * (rise - 2.0 * above) / (dt * dt);
             let b = (6.0 * above - 2.0 * rise) / dt;
             let curve = 2.0 * c * tau * tau;
             let (start, end) = (v0 - tau * b + curve, v1 - tau * (b + 2.0 * c * dt) + curve);
             self.filtered = end + (self.filtered - start) * decay;
-            (v0, integral0) = (v1, if to_period_end && k + 1 == n { 0.0 } else { integral1 });
+            (v0, integral0) = (v1, if ends_period { 0.0 } else { integral1 });
         }
         Ok(())
     }

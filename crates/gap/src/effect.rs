@@ -41,7 +41,18 @@ pub const EFFECTS: [&str; 19] = [
 /// circuit: it had counted as a calibration, and a load ESR was named before the DCM it stood
 /// in for). An explanation of last resort (see `select::best_material`).
 pub(crate) fn calibrates_reading(name: &str) -> bool {
-    SIMULATED_EFFECTS.iter().find(|e| e.name == name).is_some_and(|e| !e.extra.is_empty() && e.extra.iter().all(|&(f, _)| f.calibrates_reading()))
+    frees_only(name, Free::calibrates_reading)
+}
+
+/// Whether the effect `name` is what the vout reading does rather than the circuit: its
+/// calibration ([`calibrates_reading`]) or its filter (`sensor_filter`).
+pub(crate) fn reads_vout(name: &str) -> bool {
+    frees_only(name, |f| f.calibrates_reading() || f == Free::VoutFilter)
+}
+
+/// Whether the simulated effect `name` frees something, and only parameters `of` accepts.
+fn frees_only(name: &str, of: impl Fn(Free) -> bool) -> bool {
+    SIMULATED_EFFECTS.iter().find(|e| e.name == name).is_some_and(|e| !e.extra.is_empty() && e.extra.iter().all(|&(f, _)| of(f)))
 }
 
 /// An effect's name with the value it frees where the name alone does not say: a drift's
@@ -421,7 +432,7 @@ impl EffectFit {
     /// what the vout reading does (its calibration, its filter) rather than the circuit, unless
     /// it explains what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.
     pub(crate) fn last_resort(&self) -> bool {
-        (self.calibrates_reading() || self.name == "sensor_filter") && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
+        reads_vout(self.name) && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
     }
 
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where

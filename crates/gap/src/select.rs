@@ -25,7 +25,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, residual, rms, variance,
+    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, reads_vout, residual, rms, variance,
 };
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
@@ -240,7 +240,7 @@ impl Stack {
         // have drifted), read as the data was taken (a late reading, the other calibration): on
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
         // knee in DCM took a 2 % gain error on top of a diode drop).
-        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "sensor_filter" | "param_drift") || calibrates_reading(n));
+        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || reads_vout(n));
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         // No filter on readings shifted by a row: lagging a reading taken at the period's end
         // stands in for one taken within the period, which the instant models (`sample_delay`,
