@@ -25,7 +25,8 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SIMULATED_EFFECTS, Trial, calibrates_reading, delayed, il_calibration, il_misses_materially, judge, reads_vout, residual, rms, variance,
+    Baseline, ClCheck, DELAYS, EffectFit, IL_EXPLAINED, MATERIAL_SHARE, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, il_calibration,
+    il_closed_by_an_instant, il_misses_materially, judge, reads_vout, residual, rms, variance,
 };
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
@@ -248,13 +249,18 @@ impl Stack {
         // period was named the row shift, the dead time and a 0.16 T filter under four stand-ins.
         let in_model = |name: &str| has(name) || (diode && DIODE_TOPOLOGY.contains(&name)) || (name == "sensor_filter" && self.delay != 0);
         for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && (as_designed || !calibrates_reading(e.name))) {
-            let starts = e.starts(&self.params, io_mean);
-            let mut s = self.clone();
-            s.params = starts[0];
-            s.free.extend(e.extra.iter().map(|&(f, _)| f));
-            out.push(Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm });
+            out.push(self.extension_of(e, io_mean));
         }
         out
+    }
+
+    /// The simulated effect `e` added to this model.
+    fn extension_of(&self, e: &SimulatedEffect, io_mean: f64) -> Extension {
+        let starts = e.starts(&self.params, io_mean);
+        let mut s = self.clone();
+        s.params = starts[0];
+        s.free.extend(e.extra.iter().map(|&(f, _)| f));
+        Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm }
     }
 }
 
@@ -387,7 +393,8 @@ impl Extension {
                 ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
             }
             name => {
-                let effect = SIMULATED_EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+                let late = [SENSOR_FILTER_LATE];
+                let effect = SIMULATED_EFFECTS.iter().chain(&late).find(|e| e.name == name && e.extra.len() == self.extra).ok_or_else(|| format!("no simulator form of `{name}`"))?;
                 (params, ci95) = effect.report(&cand)?;
             }
         }
@@ -739,6 +746,9 @@ pub(crate) fn forward(
             if fit.name == "sample_delay" {
                 fit.judge_in_il(&x.stack.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             }
+            if fit.name == "sensor_filter" && x.added().contains(&Free::SampleDelay) {
+                fit.judge_late_filter_in_il(&x.stack.data(data), &against.fit.params, &cand.fit.params, n_est);
+            }
             Some((fit.into_step(), cand, x.stack.clone()))
         };
         let mut trials = Vec::new();
@@ -747,12 +757,34 @@ pub(crate) fn forward(
             // the model so far misses il materially, and first: one the current shows is taken
             // before any circuit effect (as in the first step), so these need no fit then.
             let il_missed = il_misses_materially(&stack.data(data), &stack.params, n_est);
-            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.name == "sample_delay" && il_missed);
+            // Where il shows the reading late, the filter comes with the instant il pins; not
+            // behind a diode, whose blocked periods start with il at zero, late or not.
+            let diode = DIODE_TOPOLOGY.iter().any(|n| stack.effects.contains(n));
+            if il_missed && !diode && !stack.free.contains(&Free::SampleDelay) && extensions.iter().any(|x| x.name == "sensor_filter") {
+                extensions.push(stack.extension_of(&SENSOR_FILTER_LATE, io_mean));
+            }
+            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.added().contains(&Free::SampleDelay) && il_missed);
             if late_pending {
                 rest.clear();
             }
             let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
-            let (late, screened) = rayon::join(|| late.iter().filter_map(try_one).collect::<Vec<_>>(), || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
+            // The late reading alone first; the filter read late only where il shows the instant
+            // (the late reading's fit explains il, or the best instant on il alone does) but the
+            // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
+            // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
+            let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
+            let late_trials = || {
+                let mut t: Vec<_> = delays.iter().filter_map(try_one).collect();
+                let explains_il = |c: Option<f64>| c.is_some_and(|c| c >= IL_EXPLAINED);
+                if !filters.is_empty()
+                    && !t.iter().any(|t| t.0.finding)
+                    && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_closed_by_an_instant(&stack.data(data), &stack.params, n_est)))
+                {
+                    t.extend(filters.iter().filter_map(try_one));
+                }
+                t
+            };
+            let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
         // A reading's calibration is the explanation of last resort (see `best_material`): never
