@@ -1334,29 +1334,40 @@ mod tests {
         assert!(!estimator::validate::identified(ci), "{ci:?}");
     }
 
+    /// A 1500-period PRBS record of the switched converter `p` at 2 A, read with 2 mV and 10 mA of
+    /// noise.
+    fn switched_record(p: Params) -> DataSet {
+        use buck_model::Mode;
+        use estimator::experiment::{Experiment, ModelPlant, run};
+        let exp = Experiment { samples: 1500, noise_vout: 2e-3, noise_il: 10e-3, io: 2.0, ..Experiment::default() };
+        run(&mut ModelPlant::new(p, Mode::Switched), &exp).unwrap()
+    }
+
+    /// The readings of the converter `p` under `record`'s inputs, with its noise (seeded by `seed`).
+    fn read_as(p: &Params, record: &DataSet, seed: u64) -> DataSet {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let (vout, il) = estimator::simulated::simulate_outputs(p, record, record.vout[0]).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (nv, ni) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 10e-3).unwrap());
+        DataSet { vout: vout.iter().map(|v| v + nv.sample(&mut rng)).collect(), il: Some(il.iter().map(|i| i + ni.sample(&mut rng)).collect()), ..record.clone() }
+    }
+
     /// A late reading closes il's gap against the nominal as it stands, or as the late fit
     /// calibrated the reading, whichever misses less. A "late" model whose zero error (−160 mA)
     /// only undoes its 90 ns delay closes nothing of a clean record's il (against the nominal
     /// given that zero error it "closed" 96 %); a true 100 ns delay closes nearly all of it.
     #[test]
     fn a_late_reading_is_judged_against_the_nominal_as_it_stands_too() {
-        use buck_model::Mode;
-        use estimator::experiment::{Experiment, ModelPlant, run};
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, Normal};
         let nominal = Params { cl: 10e-6, ..Params::default() };
-        let exp = Experiment { samples: 1500, noise_vout: 2e-3, noise_il: 10e-3, io: 2.0, ..Experiment::default() };
-        let clean = run(&mut ModelPlant::new(nominal, Mode::Switched), &exp).unwrap();
+        let clean = switched_record(nominal);
         let n_est = 1000;
         let undoing = Params { sample_delay: 90e-9, il_offset: -0.16, ..nominal };
         let closed = late_reading_in_il(&clean, &nominal, &undoing, n_est);
         assert!(closed.is_none_or(|c| c < IL_EXPLAINED), "a delay undoing its own zero error closed {closed:?} %");
 
         let truly = Params { sample_delay: 100e-9, ..nominal };
-        let (vout, il) = estimator::simulated::simulate_outputs(&truly, &clean, clean.vout[0]).unwrap();
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let (nv, ni) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 10e-3).unwrap());
-        let late = DataSet { vout: vout.iter().map(|v| v + nv.sample(&mut rng)).collect(), il: Some(il.iter().map(|i| i + ni.sample(&mut rng)).collect()), ..clean };
+        let late = read_as(&truly, &clean, 3);
         let closed = late_reading_in_il(&late, &nominal, &truly, n_est);
         assert!(closed.is_some_and(|c| c >= 95.0), "a true late reading closed {closed:?} %");
     }
@@ -1367,25 +1378,14 @@ mod tests {
     /// [`IL_EXPLAINED`] (43 %: a shift follows a slope's change only in part).
     #[test]
     fn an_instant_on_il_alone_tells_a_late_reading_from_an_inductance_off_nominal() {
-        use buck_model::Mode;
-        use estimator::experiment::{Experiment, ModelPlant, run};
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, Normal};
         let nominal = Params { cl: 4.7e-6, ..Params::default() };
-        let exp = Experiment { samples: 1500, noise_vout: 2e-3, noise_il: 10e-3, io: 2.0, ..Experiment::default() };
-        let clean = run(&mut ModelPlant::new(nominal, Mode::Switched), &exp).unwrap();
+        let clean = switched_record(nominal);
         let n_est = 1000;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let (nv, ni) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 10e-3).unwrap());
-        let mut read = |p: &Params| {
-            let (vout, il) = estimator::simulated::simulate_outputs(p, &clean, clean.vout[0]).unwrap();
-            DataSet { vout: vout.iter().map(|v| v + nv.sample(&mut rng)).collect(), il: Some(il.iter().map(|i| i + ni.sample(&mut rng)).collect()), ..clean.clone() }
-        };
         let period = nominal.period();
-        let late = read(&Params { sample_delay: 0.1 * period, vout_filter: 0.2 * period, ..nominal });
+        let late = read_as(&Params { sample_delay: 0.1 * period, vout_filter: 0.2 * period, ..nominal }, &clean, 5);
         let closed = il_closed_by_an_instant(&late, &nominal, n_est);
         assert!(closed.is_some_and(|c| c >= 95.0), "a late reading: {closed:?} %");
-        let inductance = read(&Params { l: 0.85 * nominal.l, ..nominal });
+        let inductance = read_as(&Params { l: 0.85 * nominal.l, ..nominal }, &clean, 6);
         let closed = il_closed_by_an_instant(&inductance, &nominal, n_est);
         assert!(closed.is_some_and(|c| c < IL_EXPLAINED), "an inductance off nominal: {closed:?} %");
     }
