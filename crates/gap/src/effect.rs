@@ -300,8 +300,12 @@ pub struct EffectFit {
 }
 
 impl EffectFit {
-    /// Its name, with the value it frees where the name alone does not say (`param_drift (Rc)`).
+    /// Its name, with the value it frees where the name alone does not say (`param_drift (Rc)`),
+    /// or the form it takes (`sensor_filter (read late)`: with its own instant).
     pub fn label(&self) -> String {
+        if self.name == "sensor_filter" && self.params.contains_key("sample_delay") {
+            return format!("{} (read late)", self.name);
+        }
         effect_label(self.name, self.params.keys().find_map(|k| k.strip_suffix("_nominal")))
     }
 

@@ -632,6 +632,7 @@ fn a_late_reading_through_an_anti_alias_filter_is_found_with_its_instant() {
     let param = |name: &str| dx.selected.iter().find_map(|e| e.params.get(name)).copied().unwrap_or_else(|| panic!("no {name}: {names:?}, {}", dx.selection_ended));
     assert!((param("vout_filter") / (0.2 * period) - 1.0).abs() < 0.03, "τ {:e} s: {names:?}", param("vout_filter"));
     assert!((param("sample_delay") / (0.095 * period) - 1.0).abs() < 0.03, "instant {:e} s: {names:?}", param("sample_delay"));
+    assert!(dx.selected.iter().any(|e| e.label() == "sensor_filter (read late)"), "{names:?}");
     assert_final_cl_holds(&dx, cl);
 }
 
