@@ -874,6 +874,13 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 11] = [
 pub(crate) const SENSOR_FILTER_LATE: SimulatedEffect =
     SimulatedEffect { name: "sensor_filter", extra: &[(Free::VoutFilter, 0.1), (Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false };
 
+/// The simulator form of the effect `name` that frees what `frees` holds: the filter read late
+/// where its instant is among them, else the effect's one form.
+pub(crate) fn simulated_form(name: &str, frees: impl Fn(Free) -> bool) -> Option<&'static SimulatedEffect> {
+    let forms: [&'static SimulatedEffect; 1] = [&SENSOR_FILTER_LATE];
+    SIMULATED_EFFECTS.iter().chain(forms).filter(|s| s.name == name && s.extra.iter().all(|&(f, _)| frees(f))).max_by_key(|s| s.extra.len())
+}
+
 /// The unit of a start value of `f` in the circuit `p`: the period for a time (a converter at
 /// 50 kHz has its dead time and its ADC's delay in hundreds of nanoseconds, one at 1 MHz in
 /// tens), C's ESR for Cl's, one for the rest (a diode's drop, a fraction, a package's ESL are

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::effect::{
     Baseline, ClCheck, DELAYS, EffectFit, IL_EXPLAINED, MATERIAL_SHARE, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, il_calibration,
-    il_closed_by_an_instant, il_misses_materially, judge, reads_vout, residual, rms, variance,
+    il_closed_by_an_instant, il_misses_materially, judge, reads_vout, residual, rms, simulated_form, variance,
 };
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
@@ -128,7 +128,7 @@ impl Stack {
                 self.free.push(f);
             }
             name => {
-                let s = SIMULATED_EFFECTS.iter().find(|s| s.name == name).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+                let s = simulated_form(name, |f| e.params.contains_key(f.name())).ok_or_else(|| format!("no simulator form of `{name}`"))?;
                 self.params.dcm |= s.dcm;
                 for &(f, _) in s.extra {
                     f.set(&mut self.params, param(f.name())?);
@@ -393,8 +393,7 @@ impl Extension {
                 ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
             }
             name => {
-                let late = [SENSOR_FILTER_LATE];
-                let effect = SIMULATED_EFFECTS.iter().chain(&late).find(|e| e.name == name && e.extra.len() == self.extra).ok_or_else(|| format!("no simulator form of `{name}`"))?;
+                let effect = simulated_form(name, |f| self.added().contains(&f)).ok_or_else(|| format!("no simulator form of `{name}`"))?;
                 (params, ci95) = effect.report(&cand)?;
             }
         }
