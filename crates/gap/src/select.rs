@@ -321,6 +321,18 @@ impl Extension {
         self.not_nested || matches!(self.name, "diode_drop" | "dcm" | "dead_time" | "delay")
     }
 
+    /// Judges its fit `fit` (circuit values `late`, on top of the model `against`) in il where it
+    /// reads late: the late reading alone ([`EffectFit::judge_in_il`]), the filter read late
+    /// ([`EffectFit::judge_late_filter_in_il`]).
+    fn judge_in_il(&self, fit: &mut EffectFit, data: &DataSet, against: &Params, late: &Params, n_est: usize, tolerance: f64) {
+        let data = self.stack.data(data);
+        match self.name {
+            "sample_delay" => fit.judge_in_il(&data, against, late, n_est, tolerance),
+            "sensor_filter" if self.added().contains(&Free::SampleDelay) => fit.judge_late_filter_in_il(&data, against, late, n_est),
+            _ => {}
+        }
+    }
+
     /// The free parameters it adds to the model it extends.
     fn added(&self) -> &[Free] {
         &self.stack.free[self.stack.free.len() - self.extra.min(self.stack.free.len())..]
@@ -742,12 +754,7 @@ pub(crate) fn forward(
             }
             let t = t.ok()?;
             let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
-            if fit.name == "sample_delay" {
-                fit.judge_in_il(&x.stack.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
-            }
-            if fit.name == "sensor_filter" && x.added().contains(&Free::SampleDelay) {
-                fit.judge_late_filter_in_il(&x.stack.data(data), &against.fit.params, &cand.fit.params, n_est);
-            }
+            x.judge_in_il(&mut fit, data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             Some((fit.into_step(), cand, x.stack.clone()))
         };
         let mut trials = Vec::new();
@@ -820,24 +827,32 @@ pub(crate) fn forward(
         if !settled && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
             trials.extend(readings.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
-        let next = match trials.iter().position(|t| t.0.late_in_il()) {
-            Some(k) => trials.into_iter().nth(k),
-            None => best_material(trials.into_iter(), |t| &t.0),
+        let tried = displaced.into_inner().unwrap_or_default();
+        // A late reading il shows that displaces an effect already taken (a probe's offset
+        // standing in for a filter's lag) replaces it first, as it would have been taken first.
+        let late: Vec<Swap> = tried.iter().filter(|t| t.added.contains(&Free::SampleDelay)).cloned().collect();
+        let late_swap = (swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()))
+            .then(|| swap(data, nominal, &selected, &stack, &late, &against, switched_data, io_mean, n_est, holdout, baseline))
+            .flatten()
+            .filter(|(_, t)| t.0.late_in_il());
+        // Else the late reading il shows, or the best material step; nothing adding, an effect
+        // that replaced one already taken: that swap, when it is a finding.
+        let next = match (late_swap, trials.iter().position(|t| t.0.late_in_il())) {
+            (Some((k, t)), _) => Some((Some(k), t)),
+            (None, Some(k)) => trials.into_iter().nth(k).map(|t| (None, t)),
+            (None, None) => match best_material(trials.into_iter(), |t| &t.0) {
+                None if swaps_left > 0 && !late_pending => swap(data, nominal, &selected, &stack, &tried, &against, switched_data, io_mean, n_est, holdout, baseline).map(|(k, t)| (Some(k), t)),
+                next => next.map(|t| (None, t)),
+            },
         };
-        // Nothing adds, yet an effect replaced one already taken: that swap, when it is a finding.
-        let next = match next {
-            None if swaps_left > 0 && !late_pending => {
-                let tried = displaced.into_inner().unwrap_or_default();
-                let swapped = swap(data, nominal, &selected, &stack, &tried, &against, switched_data, io_mean, n_est, holdout, baseline);
-                swapped.map(|(k, t)| {
-                    swaps_left -= 1;
-                    let out = selected.remove(k);
-                    notes.push(format!("{} replaced {} (taken before it, a stand-in)", t.0.label(), out.label()));
-                    t
-                })
+        let next = next.map(|(replaced, t)| {
+            if let Some(k) = replaced {
+                swaps_left -= 1;
+                let out = selected.remove(k);
+                notes.push(format!("{} replaced {} (taken before it, a stand-in)", t.0.label(), out.label()));
             }
-            next => next,
-        };
+            t
+        });
         let Some((fit, cand, extended)) = next else {
             let why = if late_pending { "the gap left is within the noise floor" } else { "no further effect is a finding" };
             break why.to_string();
@@ -895,10 +910,12 @@ fn swap(
             let k = owner(s.lost)?;
             let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
             let base = Stack::of(&others, nominal, stack.params.cl, stack.switched).ok()?;
-            let x = base.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
+            let late = s.added.contains(&Free::SampleDelay).then(|| base.extension_of(&SENSOR_FILTER_LATE, io_mean));
+            let x = base.extensions(nominal, switched_data, io_mean).into_iter().chain(late).find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
             let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
             t.not_nested = true;
-            let (fit, cand) = judge(x.name, t, against, n_est, baseline);
+            let (mut fit, cand) = judge(x.name, t, against, n_est, baseline);
+            x.judge_in_il(&mut fit, data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
             let fit = fit.into_step();
             fit.finding.then_some((k, (fit, cand, x.stack)))
         })

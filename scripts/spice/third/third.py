@@ -1521,6 +1521,8 @@ def parser():
     add("--aa-tau", type=float,
         help="the vout reading's RC anti-alias filter, its time constant as a fraction of the period "
              "(overrides the draw; 0 = none)")
+    add("--adc-delay", type=float,
+        help="the ADC's sampling instant after the period start, as a fraction of the period (overrides the draw)")
     add("--periods", type=int, default=3001)
     add("--out", default="-", help="CSV file ('-' = stdout)")
     add("--truth", help="JSON file with everything the run used")
@@ -1534,6 +1536,8 @@ def main(argv=None):
     c = quieter(c, a.noise_scale)
     if a.aa_tau is not None:
         c["acq"]["aa_tau"] = a.aa_tau / c["nominal"]["fs"]
+    if a.adc_delay is not None:
+        c["acq"]["adc_delay"] = a.adc_delay / c["nominal"]["fs"]
     text, truth = generate(c, a.periods, a.workdir)
     if a.out == "-":
         sys.stdout.write(text)
