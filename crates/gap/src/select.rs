@@ -877,9 +877,10 @@ const MAX_SWAPS: usize = 2;
 
 /// The best of the swaps `tried` (each at most once): the selected effect owning the displaced
 /// parameter taken out of the model so far (`stack`, fitted as `against`), the newcomer fitted
-/// in its place and judged against `against` as a model not nested in it. Returns the index in
-/// `selected` of the effect it replaces, and the newcomer's fit, candidate and model. An effect
-/// found in il is never swapped out (its evidence is not in vout).
+/// in its place and judged against `against` as a model not nested in it (a late reading in il
+/// too, the filter read late among the newcomers). Returns the index in `selected` of the
+/// effect it replaces, and the newcomer's fit, candidate and model. An effect found in il is
+/// never swapped out (its evidence is not in vout).
 #[allow(clippy::too_many_arguments)]
 fn swap(
     data: &DataSet,
