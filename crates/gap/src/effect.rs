@@ -344,6 +344,11 @@ impl EffectFit {
 /// time follows only in part).
 pub(crate) const IL_EXPLAINED: f64 = 75.0;
 
+/// Whether a share of il's gap closed [%] explains il ([`IL_EXPLAINED`]).
+pub(crate) fn explains_il(closed: Option<f64>) -> bool {
+    closed.is_some_and(|c| c >= IL_EXPLAINED)
+}
+
 /// Most the late reading may leave of `il`'s residual, in multiples of its noise floor, to be a
 /// finding on its own: a delay that only shrinks a model's failure (a missing diode, DCM: amperes
 /// of error) is not a late reading, whatever share it closes.
@@ -356,7 +361,12 @@ fn il_residual(data: &DataSet, p: &Params, n_est: usize) -> Option<(f64, f64, us
     let il = data.il.as_ref()?;
     let (floor, floor_samples) = estimator::noise::white_noise(data, il)?;
     let (_, sim) = estimator::simulated::simulate_outputs(p, data, data.vout[0]).ok()?;
-    Some((rms(&il[n_est..].iter().zip(&sim[n_est..]).map(|(m, s)| m - s).collect::<Vec<f64>>()), floor, floor_samples))
+    Some((held_out_rms(il, &sim, n_est, |s| s), floor, floor_samples))
+}
+
+/// RMS of `measured − read(simulated)` over the held-out samples (from `n_est`).
+fn held_out_rms(measured: &[f64], simulated: &[f64], n_est: usize, read: impl Fn(f64) -> f64) -> f64 {
+    rms(&measured[n_est..].iter().zip(&simulated[n_est..]).map(|(m, s)| m - read(*s)).collect::<Vec<f64>>())
 }
 
 /// Whether the model with circuit values `p` misses the measured `il` materially above its
@@ -397,15 +407,14 @@ const INSTANT_GRID: usize = 16;
 /// late through τ = 0.2 T: 11 floors left, 87 % closed). `None` without `il`, a floor for it, or
 /// a material gap of it.
 pub(crate) fn il_closed_by_an_instant(data: &DataSet, p: &Params, n_est: usize) -> Option<f64> {
+    let (before, floor, floor_samples) = il_residual(data, p, n_est)?;
     let il = data.il.as_ref()?;
-    let (floor, floor_samples) = estimator::noise::white_noise(data, il)?;
     let missed = |at: f64| -> f64 {
         let q = Params { sample_delay: at, il_offset: 0.0, il_gain_error: 0.0, sample_duty_share: 0.0, ..*p };
         let Ok((_, sim)) = estimator::simulated::simulate_outputs(&q, data, data.vout[0]) else { return f64::INFINITY };
         let (offset, gain_error) = estimator::simulated::reading_calibration(il, &sim);
-        rms(&il[n_est..].iter().zip(&sim[n_est..]).map(|(m, s)| m - ((1.0 + gain_error) * s + offset)).collect::<Vec<f64>>())
+        held_out_rms(il, &sim, n_est, |s| (1.0 + gain_error) * s + offset)
     };
-    let (before, ..) = il_residual(data, p, n_est)?;
     let before = before.min(missed(p.sample_delay));
     let step = p.period() / INSTANT_GRID as f64;
     let grid = (0..).map(|k| k as f64 * step).take_while(|&at| at < MAX_SAMPLE_DELAY * p.period());
@@ -447,7 +456,7 @@ impl EffectFit {
     pub(crate) fn judge_in_il(&mut self, data: &DataSet, against: &Params, late: &Params, n_est: usize, tolerance: f64) {
         self.il_closed_percent = late_reading_in_il(data, against, late, n_est);
         let matters = self.material || (late.cl / against.cl).ln().abs() > tolerance;
-        self.finding |= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED) && self.identifiable && !self.at_bound && matters;
+        self.finding |= explains_il(self.il_closed_percent) && self.identifiable && !self.at_bound && matters;
     }
 
     /// For a filter read late ([`SENSOR_FILTER_LATE`], circuit values `late`) on top of the
@@ -458,7 +467,7 @@ impl EffectFit {
     /// current-probe offset).
     pub(crate) fn judge_late_filter_in_il(&mut self, data: &DataSet, against: &Params, late: &Params, n_est: usize) {
         self.il_closed_percent = late_reading_in_il(data, against, late, n_est);
-        self.finding &= self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED);
+        self.finding &= explains_il(self.il_closed_percent);
     }
 
     /// It judged as a step on top of a model (a forward step, a swap, the joint refit's): one
@@ -505,7 +514,7 @@ impl EffectFit {
     /// it is material there too, a vout-only effect such as an ESL may fit `vout` as well, and
     /// only il tells them apart).
     pub(crate) fn late_in_il(&self) -> bool {
-        self.finding && self.il_closed_percent.is_some_and(|c| c >= IL_EXPLAINED)
+        self.finding && explains_il(self.il_closed_percent)
     }
 }
 

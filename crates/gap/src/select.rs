@@ -25,7 +25,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, IL_EXPLAINED, MATERIAL_SHARE, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, il_calibration,
+    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il, il_calibration,
     il_closed_by_an_instant, il_misses_materially, judge, reads_vout, residual, rms, simulated_form, variance,
 };
 
@@ -781,7 +781,6 @@ pub(crate) fn forward(
             let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
             let late_trials = || {
                 let mut t: Vec<_> = delays.iter().filter_map(try_one).collect();
-                let explains_il = |c: Option<f64>| c.is_some_and(|c| c >= IL_EXPLAINED);
                 if !filters.is_empty()
                     && !t.iter().any(|t| t.0.finding)
                     && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_closed_by_an_instant(&stack.data(data), &stack.params, n_est)))
@@ -911,7 +910,7 @@ fn swap(
             let k = owner(s.lost)?;
             let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
             let base = Stack::of(&others, nominal, stack.params.cl, stack.switched).ok()?;
-            let late = s.added.contains(&Free::SampleDelay).then(|| base.extension_of(&SENSOR_FILTER_LATE, io_mean));
+            let late = (s.name == "sensor_filter" && s.added.contains(&Free::SampleDelay)).then(|| base.extension_of(&SENSOR_FILTER_LATE, io_mean));
             let x = base.extensions(nominal, switched_data, io_mean).into_iter().chain(late).find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
             let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
             t.not_nested = true;
