@@ -183,7 +183,7 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
     let mut out: Vec<String> = e
         .params
         .iter()
-        .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm")
+        .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm" && *k != gap::RECIPROCAL_BIAS_LAW)
         .map(|(k, v)| {
             // A delay is a whole number of periods; a reading's gain error reads as a percentage.
             if k == "delay" {
@@ -198,6 +198,9 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
             format!("{k} = {}", with_ci(v * scale, e.ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
         })
         .collect();
+    if e.params.contains_key(gap::RECIPROCAL_BIAS_LAW) {
+        out.push("under the reciprocal law: Cl kept 1/(1 + c·v/cap_rated_voltage)², c = 1/√(1 − cap_dc_bias) − 1".to_string());
+    }
     if let Some(d) = e.drift_percent {
         out.push(format!("{d:+.2} % from nominal"));
     }

@@ -4,7 +4,7 @@
 //! against ([`Baseline`]), significance, materiality and the bounds of a fit.
 use std::collections::BTreeMap;
 
-use buck_model::Params;
+use buck_model::{BiasLaw, Params};
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
@@ -938,6 +938,11 @@ impl SimulatedEffect {
             }));
         }
         starts.extend(self.also_locked.iter().map(|&(delay, share)| Params { sample_delay: delay * base.period(), sample_duty_share: share, ..p }));
+        // A bias law from each start under either shape: the fit goes on in the better one.
+        if self.frees(Free::CapDcBias) {
+            let other: Vec<Params> = starts.iter().map(|s| Params { cap_bias_law: s.cap_bias_law.other(), ..*s }).collect();
+            starts.extend(other);
+        }
         starts
     }
 
@@ -973,8 +978,22 @@ impl SimulatedEffect {
         if self.frees(Free::CapDcBias) {
             params.insert("cap_rated_voltage".to_string(), cand.fit.params.cap_rated_voltage);
             params.insert("cl_reference_voltage".to_string(), cand.fit.params.cl_reference_voltage);
+            record_bias_law(&mut params, &cand.fit.params);
         }
         Ok((params, ci95))
+    }
+}
+
+/// The parameter a `cap_dc_bias` fitted under the reciprocal law carries (1); under the
+/// quadratic law, the default, there is none.
+pub const RECIPROCAL_BIAS_LAW: &str = "cap_bias_law_reciprocal";
+
+/// Records the bias law of the circuit `p` in an effect's parameters `params` ([`RECIPROCAL_BIAS_LAW`]).
+pub(crate) fn record_bias_law(params: &mut BTreeMap<String, f64>, p: &Params) {
+    if p.cap_bias_law == BiasLaw::Reciprocal {
+        params.insert(RECIPROCAL_BIAS_LAW.to_string(), 1.0);
+    } else {
+        params.remove(RECIPROCAL_BIAS_LAW);
     }
 }
 

@@ -25,8 +25,8 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il, il_calibration,
-    il_closed_by_an_instant, il_misses_materially, judge, reads_vout, residual, rms, simulated_form, variance,
+    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il, il_calibration,
+    il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
@@ -139,6 +139,9 @@ impl Stack {
                 }
                 if let Some(&share) = e.params.get("sample_duty_share") {
                     self.params.sample_duty_share = share;
+                }
+                if e.params.contains_key(RECIPROCAL_BIAS_LAW) {
+                    self.params.cap_bias_law = buck_model::BiasLaw::Reciprocal;
                 }
             }
         }
@@ -930,6 +933,10 @@ pub(crate) fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nomi
         // A late reading's nuisances (the il reading's calibration) as the final fit has them.
         if e.params.contains_key("il_offset") {
             e.params.extend(il_calibration(&last.fit.params));
+        }
+        // A bias law's shape as the final fit has it (the other law's, where the data prefers it).
+        if e.params.contains_key(Free::CapDcBias.name()) {
+            record_bias_law(&mut e.params, &last.fit.params);
         }
         let keys: Vec<String> = e.ci95.keys().cloned().collect();
         for key in keys {
