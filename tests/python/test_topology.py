@@ -47,3 +47,31 @@ def test_a_diode_buck_whose_best_first_step_is_a_dead_time_is_a_diode_buck(bucki
     assert "switch_resistance" in named, named
     # At the noise floor: the final model misses vout by less than 1.2 floors.
     assert dx["selected"][-1]["rms_after"] < 1.2 * dx["where"]["noise_floor_rms"], dx["selected"][-1]["rms_after"]
+
+
+@needs_ngspice
+def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_identifies_no_cl(buckid_bin, tmp_path):
+    """A Schottky point-of-load buck at 0.18 A (seed 1901: 6.24 uF on 70 uF, L 13 % above its
+    nominal, a 14 nF snubber on the node) starts every period in DCM. The diode's drop takes
+    the inductor's place (788 mV for 0.29 V), and the model still misses vout by 2.8 floors:
+    its charge per period is not the converter's, and in deep DCM Cl shows only through that
+    charge. Its interval, 21-54 uF for 6.24, was confident and wrong; Cl is not identified and
+    the JSON says why."""
+    data, truth_file, out = tmp_path / "pol.csv", tmp_path / "truth.json", tmp_path / "dx.json"
+    subprocess.run([sys.executable, str(THIRD), "--family", "pol", "--case", "several", "--seed", "1901", "--periods", "3001",
+                    "--out", str(data), "--truth", str(truth_file)], check=True, capture_output=True, timeout=600)
+    truth = json.loads(truth_file.read_text())
+    assert truth["topology"] == "async" and "dcm" in truth["effects"], truth["effects"]
+    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    dx = json.loads(out.read_text())
+    assert dx["selected"][0]["name"] == "diode_drop", dx["selection_ended"]
+    cl = dx["selected"][-1]["cl"]
+    miss = cl["deep_dcm_miss"]
+    assert miss["dcm_share"] >= 0.9 and miss["misses_by_floors"] >= 2.0, miss
+    assert cl["ci95"][0] == 0.0 and cl["ci95"][1] is None, cl["ci95"]
+    # What the model's own interval said, and the truth it left out.
+    lo, hi = cl["check"]["model_ci95"]
+    assert not lo <= truth["cl_true"] <= hi, (lo, hi, truth["cl_true"])
+    assert "not identified: the model starts" in proc.stdout, proc.stdout[-2000:]

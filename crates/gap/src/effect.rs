@@ -102,6 +102,10 @@ pub struct ClMove {
     /// that multiple; Cl is then not identified, whatever its interval said.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub misses_by_floors: Option<f64>,
+    /// For a diode buck's final model that starts most of its periods in DCM and still misses
+    /// `vout` by several noise floors ([`DeepDcmMiss`]); Cl is then not identified.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deep_dcm_miss: Option<DeepDcmMiss>,
     /// For a final model whose bias law the diagnosis anchored: the operating point Cl is
     /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -131,6 +135,9 @@ impl ClMove {
         }
         if let Some(k) = self.misses_by_floors {
             test += &format!("; not identified: the model still misses vout by {k:.1}× its noise floor, no model of this converter's Cl");
+        }
+        if let Some(m) = &self.deep_dcm_miss {
+            test += &format!("; {m}");
         }
         match &self.current_misfit {
             Some(misfit) if !misfit.contradicts() => test += &format!("; {}", misfit.slip()),
@@ -169,8 +176,19 @@ impl ClMove {
 
     /// Cl at `estimate` with its CI95, moved from `cl_before`, not yet tested.
     pub(crate) fn at(estimate: f64, ci95: [f64; 2], cl_before: f64) -> Self {
-        let mut cl =
-            Self { estimate, ci95, moved_percent: f64::NAN, check: None, check_skipped: None, widened_by: None, bias_law: None, misses_by_floors: None, operating_point: None, current_misfit: None };
+        let mut cl = Self {
+            estimate,
+            ci95,
+            moved_percent: f64::NAN,
+            check: None,
+            check_skipped: None,
+            widened_by: None,
+            bias_law: None,
+            misses_by_floors: None,
+            deep_dcm_miss: None,
+            operating_point: None,
+            current_misfit: None,
+        };
         cl.moved_from(cl_before);
         cl
     }
@@ -743,6 +761,49 @@ pub(crate) fn gross_miss(rms: f64, floor: Option<f64>, swing: f64) -> Option<f64
     floor.filter(|&f| above_floor(rms, f) > GROSS_MISS_OF_SWING * swing).map(|f| rms / f).filter(|&k| k > GROSS_MISS_FLOORS)
 }
 
+/// Share of its periods a diode buck's final model starts in DCM from which its Cl rests on
+/// the charge law alone: with few periods in CCM, no LC ring pins the total capacitance, and
+/// the output is a first-order system whose pole is the charge's slope with `vout` over it.
+pub const DEEP_DCM_SHARE: f64 = 0.9;
+
+/// Held-out residual RMS, in noise floors, from which a deep-DCM model's charge law is taken
+/// to be wrong ([`DeepDcmMiss`]): a model error of three times the noise's power, what a
+/// stand-in leaves (as the joint refit judges a sequence).
+pub const DEEP_DCM_MISS_FLOORS: f64 = 2.0;
+
+/// A diode buck's final model in deep DCM that still misses `vout`: in deep DCM the output
+/// follows each period's charge, and Cl shows only through that charge's slope with the
+/// output voltage. A model whose charge misses (a real node rings once the diode blocks, L and
+/// the drop trade off in the charge) fits whatever Cl best hides it: a third-generator Schottky
+/// buck at 0.18 A, L 13 % above nominal, missed by 2.8 floors with Cl 28 [21, 54] µF for
+/// 6.24. Its Cl is not identified.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct DeepDcmMiss {
+    /// Share of the periods the final model starts in DCM.
+    pub dcm_share: f64,
+    /// Its held-out residual RMS in noise floors.
+    pub misses_by_floors: f64,
+}
+
+impl DeepDcmMiss {
+    /// The miss of a final model starting `dcm_share` of its periods in DCM and leaving a
+    /// held-out residual of `floors` noise floors, where it voids Cl.
+    pub fn of(dcm_share: f64, floors: f64) -> Option<Self> {
+        (dcm_share >= DEEP_DCM_SHARE && floors >= DEEP_DCM_MISS_FLOORS).then_some(Self { dcm_share, misses_by_floors: floors })
+    }
+}
+
+impl std::fmt::Display for DeepDcmMiss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "not identified: the model starts {:.0} % of its periods in DCM, where Cl shows only through each period's charge, and still misses vout by {:.1}× its noise floor: its charge is not the converter's",
+            100.0 * self.dcm_share,
+            self.misses_by_floors
+        )
+    }
+}
+
 /// Lags of the residual's autocorrelation summed by [`model_error_inflation`]: three PRBS bits
 /// of 8 periods, the scale over which a model error of the step response stays correlated.
 const INFLATION_LAGS: usize = 24;
@@ -1184,6 +1245,18 @@ mod tests {
     /// something physical; inside it, or a lower bound of 0 a log-scale fit only approaches, is fine.
     /// The readings' calibrations are the effects that free only them; DCM frees nothing and
     /// changes the circuit.
+    /// Cl is voided in DCM only where the model still misses and DCM leaves no CCM periods to
+    /// pin the total capacitance: the bench's own deep-DCM sets (93–100 % of periods, 1.00–1.06
+    /// floors) keep theirs, as does a diode buck half in CCM missing by 2.8 floors.
+    #[test]
+    fn only_a_deep_dcm_model_that_misses_loses_its_cl() {
+        assert!(DeepDcmMiss::of(1.0, 2.8).is_some());
+        assert!(DeepDcmMiss::of(0.93, 1.06).is_none() && DeepDcmMiss::of(1.0, 1.06).is_none());
+        assert!(DeepDcmMiss::of(0.56, 2.8).is_none());
+        let said = DeepDcmMiss::of(1.0, 2.81).map(|m| m.to_string()).unwrap_or_default();
+        assert!(said.starts_with("not identified") && said.contains("100 %") && said.contains("2.8×"), "{said}");
+    }
+
     #[test]
     fn only_the_readings_calibrations_calibrate_the_reading() {
         assert!(calibrates_reading("sensor_offset") && calibrates_reading("sensor_gain"));

@@ -31,8 +31,8 @@ use std::collections::BTreeMap;
 pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE};
 pub use effect::{
-    ClCheck, ClMove, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, RECIPROCAL_BIAS_LAW, closed_percent, gap_above, gap_material,
-    model_error_inflation,
+    ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, RECIPROCAL_BIAS_LAW,
+    closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
@@ -458,6 +458,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.read_at(v, ratio, baseline.cl);
         }
         (last.cl.ci95, last.cl.widened_by, last.cl.misses_by_floors) = baseline.judged_by_miss(last.cl.estimate, last.cl.ci95, left);
+        // In deep DCM a charge the model misses is what Cl hides (unless the miss is gross,
+        // which voids it already).
+        if let (Some(share), Some(floor), None) = (dcm_share, baseline.floor, last.cl.misses_by_floors) {
+            last.cl.deep_dcm_miss = effect::DeepDcmMiss::of(share, effect::rms(left) / floor);
+            if last.cl.deep_dcm_miss.is_some() {
+                last.cl.ci95 = [0.0, f64::INFINITY];
+            }
+        }
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
