@@ -688,8 +688,10 @@ impl Baseline {
 
     /// Why no effect is a finding, from the nominal's own gap: it is within the noise floor,
     /// immaterial against the output's swing, or material with no candidate closing a
-    /// material share of it (a mechanism the candidates lack, or noise that is not white).
-    pub(crate) fn nothing_found(&self) -> String {
+    /// material share of it (a mechanism the candidates lack, or noise that is not white), or
+    /// with the one that does, `on_bound` (its name and the share it closes, %), ending on a
+    /// bound of its range: not converged, something beside it missing.
+    pub(crate) fn nothing_found(&self, on_bound: Option<(&str, f64)>) -> String {
         let Some(floor) = self.floor else {
             return "no effect is a finding".to_string();
         };
@@ -698,6 +700,10 @@ impl Baseline {
             format!("no effect is a finding: the nominal misses within the noise floor ({:.2}× its RMS)", self.rms / floor)
         } else if self.misses_materially(self.rms) != Some(true) {
             format!("no effect is a finding: the nominal's gap above the noise floor is {share:.3} % of the output's swing, immaterial (below {:.2} %)", 100.0 * MATERIAL_OF_SWING)
+        } else if let Some((name, closed)) = on_bound {
+            format!(
+                "no effect is a finding: the nominal misses by {share:.2} % of the output's swing above the noise floor; {name} closes {closed:.1} % of it but ends on a bound of its range, not converged (a mechanism beside it is missing)"
+            )
         } else {
             format!(
                 "no effect is a finding: the nominal misses by {share:.2} % of the output's swing above the noise floor, yet no candidate closes {MATERIAL_SHARE:.0} % of it (a mechanism the candidates lack, or noise that is not white)"

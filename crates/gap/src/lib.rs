@@ -347,7 +347,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let (mut selected, mut selection_ended) = match first {
         Some(first) if first.finding => path(first),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
-        None => (Vec::new(), baseline.nothing_found()),
+        None => {
+            // The candidate closing most of a material share that ended on a bound, if any.
+            let on_bound = effects.iter().filter(|e| e.at_bound && e.material).filter_map(|e| Some((e.name, e.closed_percent?))).max_by(|a, b| a.1.total_cmp(&b.1));
+            (Vec::new(), baseline.nothing_found(on_bound))
+        }
     };
     // The other topology, where the path from the first step still misses materially and the
     // other topology's best first step came close, or the instant within the period where the
