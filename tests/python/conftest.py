@@ -96,6 +96,19 @@ def buckid_bin() -> Path:
     return cargo_executable("buckid", "buckid", "--bin", "buckid")
 
 
+def third_diagnosis(buckid_bin: Path, tmp_path: Path, *third_args: str):
+    """A board from the third ngspice generator (`scripts/spice/third/third.py` with
+    `third_args`, e.g. `--family pol --case several --seed 1901`), diagnosed by `buckid diagnose
+    --nominal switched`: `(truth, diagnosis JSON, the CLI's stdout)`."""
+    data, truth_file, out = tmp_path / "third.csv", tmp_path / "truth.json", tmp_path / "dx.json"
+    subprocess.run([sys.executable, str(REPO / "scripts" / "spice" / "third" / "third.py"), *third_args,
+                    "--out", str(data), "--truth", str(truth_file)], check=True, capture_output=True, timeout=900)
+    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return json.loads(truth_file.read_text()), json.loads(out.read_text()), proc.stdout
+
+
 def assert_fmutool_clean(fmu: Path, fmutool: str) -> None:
     """`fmutool -input FMU -check` exits 0, prints no ERROR line, finds the FMU compliant with
     FMI 2.0 and reports no semantic error."""

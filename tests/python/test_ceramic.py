@@ -9,34 +9,21 @@ effect is named, the JSON says which law, and Cl holds.
 
 from __future__ import annotations
 
-import json
 import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[2]
-THIRD = REPO / "scripts" / "spice" / "third" / "third.py"
+from conftest import third_diagnosis
 
 needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
 
 
 @needs_ngspice
 def test_a_ceramic_swung_across_its_law_is_found_under_the_shape_it_follows(buckid_bin, tmp_path):
-    data, truth_file = tmp_path / "ceramic.csv", tmp_path / "truth.json"
-    subprocess.run([sys.executable, str(THIRD), "--family", "pol", "--case", "single", "--effect", "cap_dc_bias",
-                    "--seed", "4302", "--periods", "3001", "--out", str(data), "--truth", str(truth_file)],
-                   check=True, capture_output=True, timeout=900)
-    truth = json.loads(truth_file.read_text())
-    vout = [float(line.split(",")[4]) for line in data.read_text().splitlines()[1:] if line and not line.startswith("#") and line[0].isdigit()]
+    truth, dx, _ = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "single", "--effect", "cap_dc_bias",
+                                   "--seed", "4302", "--periods", "3001")
+    data = (tmp_path / "third.csv").read_text().splitlines()
+    vout = [float(line.split(",")[4]) for line in data if line[:1].isdigit()]
     assert min(vout) < 1.0 and max(vout) > 4.5, "the output must swing across the law"
-    out = tmp_path / "dx.json"
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    dx = json.loads(out.read_text())
     names = [e["name"] for e in dx["selected"]]
     assert names[:1] == ["cap_dc_bias"], (names, dx["selection_ended"])
     assert dx["selected"][0]["params"].get("cap_bias_law_reciprocal") == 1.0, dx["selected"][0]["params"]

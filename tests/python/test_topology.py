@@ -12,31 +12,18 @@ material share of what is left.
 
 from __future__ import annotations
 
-import json
 import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[2]
-THIRD = REPO / "scripts" / "spice" / "third" / "third.py"
+from conftest import third_diagnosis
 
 needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
 
 
 @needs_ngspice
 def test_a_diode_buck_whose_best_first_step_is_a_dead_time_is_a_diode_buck(buckid_bin, tmp_path):
-    data, truth_file, out = tmp_path / "pol.csv", tmp_path / "truth.json", tmp_path / "dx.json"
-    subprocess.run([sys.executable, str(THIRD), "--family", "pol", "--case", "several", "--seed", "1101", "--periods", "3001",
-                    "--out", str(data), "--truth", str(truth_file)], check=True, capture_output=True, timeout=600)
-    truth = json.loads(truth_file.read_text())
+    truth, dx, _ = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "several", "--seed", "1101", "--periods", "3001")
     assert truth["topology"] == "async" and "diode_drop" in truth["effects"], truth["effects"]
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    dx = json.loads(out.read_text())
     named = [e["name"] for e in dx["selected"]]
     assert named[0] == "diode_drop" and "dead_time" not in named, (named, dx["selection_ended"])
     assert "the other topology" in dx["selection_ended"], dx["selection_ended"]
@@ -57,15 +44,8 @@ def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_identifies_no_cl
     its charge per period is not the converter's, and in deep DCM Cl shows only through that
     charge. Its interval, 21-54 uF for 6.24, was confident and wrong; Cl is not identified and
     the JSON says why."""
-    data, truth_file, out = tmp_path / "pol.csv", tmp_path / "truth.json", tmp_path / "dx.json"
-    subprocess.run([sys.executable, str(THIRD), "--family", "pol", "--case", "several", "--seed", "1901", "--periods", "3001",
-                    "--out", str(data), "--truth", str(truth_file)], check=True, capture_output=True, timeout=600)
-    truth = json.loads(truth_file.read_text())
+    truth, dx, stdout = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "several", "--seed", "1901", "--periods", "3001")
     assert truth["topology"] == "async" and "dcm" in truth["effects"], truth["effects"]
-    proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    dx = json.loads(out.read_text())
     assert dx["selected"][0]["name"] == "diode_drop", dx["selection_ended"]
     cl = dx["selected"][-1]["cl"]
     miss = cl["deep_dcm_miss"]
@@ -74,4 +54,4 @@ def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_identifies_no_cl
     # What the model's own interval said, and the truth it left out.
     lo, hi = cl["check"]["model_ci95"]
     assert not lo <= truth["cl_true"] <= hi, (lo, hi, truth["cl_true"])
-    assert "not identified: the model starts" in proc.stdout, proc.stdout[-2000:]
+    assert "not identified: the model starts" in stdout, stdout[-2000:]
