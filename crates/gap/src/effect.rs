@@ -1247,10 +1247,6 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
 mod tests {
     use super::*;
 
-    /// A fit on the edge of a variable's range (cap_dc_bias 0–0.9) has not converged to
-    /// something physical; inside it, or a lower bound of 0 a log-scale fit only approaches, is fine.
-    /// The readings' calibrations are the effects that free only them; DCM frees nothing and
-    /// changes the circuit.
     /// Cl is voided in DCM only where the model still misses and DCM leaves no CCM periods to
     /// pin the total capacitance: the bench's own deep-DCM sets (93–100 % of periods, 1.00–1.06
     /// floors) keep theirs, as does a diode buck half in CCM missing by 2.8 floors.
@@ -1263,6 +1259,10 @@ mod tests {
         assert!(said.starts_with("not identified") && said.contains("100 %") && said.contains("2.8×"), "{said}");
     }
 
+    /// A fit on the edge of a variable's range (cap_dc_bias 0–0.9) has not converged to
+    /// something physical; inside it, or a lower bound of 0 a log-scale fit only approaches, is fine.
+    /// The readings' calibrations are the effects that free only them; DCM frees nothing and
+    /// changes the circuit.
     #[test]
     fn only_the_readings_calibrations_calibrate_the_reading() {
         assert!(calibrates_reading("sensor_offset") && calibrates_reading("sensor_gain"));
