@@ -829,21 +829,25 @@ pub(crate) fn forward(
         if !settled && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
             trials.extend(readings.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
-        let tried = displaced.into_inner().unwrap_or_default();
+        let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.into_inner().unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
+        let swap_fits = |tried: &[Swap]| swaps(data, nominal, &selected, &stack, tried, &against, switched_data, io_mean, n_est, holdout, baseline);
         // A late reading il shows that displaces an effect already taken (a probe's offset
         // standing in for a filter's lag) replaces it first, as it would have been taken first.
-        let late: Vec<Swap> = tried.iter().filter(|t| t.added.contains(&Free::SampleDelay)).cloned().collect();
-        let late_swap = (swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()))
-            .then(|| swap(data, nominal, &selected, &stack, &late, &against, switched_data, io_mean, n_est, holdout, baseline))
-            .flatten()
-            .filter(|(_, t)| t.0.late_in_il());
+        let mut late_fits = if swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) { swap_fits(&late) } else { Vec::new() };
+        let late_swap = best_material(late_fits.iter().enumerate(), |(_, s)| &s.1.0).filter(|(_, s)| s.1.0.late_in_il()).map(|(i, _)| i);
+        let late_swap = late_swap.map(|i| late_fits.swap_remove(i));
         // Else the late reading il shows, or the best material step; nothing adding, an effect
-        // that replaced one already taken: that swap, when it is a finding.
+        // that replaced one already taken: that swap, when it is a finding (the late ones' fits
+        // reused).
         let next = match (late_swap, trials.iter().position(|t| t.0.late_in_il())) {
             (Some((k, t)), _) => Some((Some(k), t)),
             (None, Some(k)) => trials.into_iter().nth(k).map(|t| (None, t)),
             (None, None) => match best_material(trials.into_iter(), |t| &t.0) {
-                None if swaps_left > 0 && !late_pending => swap(data, nominal, &selected, &stack, &tried, &against, switched_data, io_mean, n_est, holdout, baseline).map(|(k, t)| (Some(k), t)),
+                None if swaps_left > 0 && !late_pending => {
+                    // The late ones were fitted above wherever this is reached with any.
+                    late_fits.extend(swap_fits(&others));
+                    best_material(late_fits.into_iter(), |s| &s.1.0).map(|(k, t)| (Some(k), t))
+                }
                 next => next.map(|t| (None, t)),
             },
         };
@@ -877,14 +881,15 @@ pub(crate) fn forward(
 /// Most swaps in a sequence ([`Swap`]).
 const MAX_SWAPS: usize = 2;
 
-/// The best of the swaps `tried` (each at most once): the selected effect owning the displaced
-/// parameter taken out of the model so far (`stack`, fitted as `against`), the newcomer fitted
-/// in its place and judged against `against` as a model not nested in it (a late reading in il
-/// too, the filter read late among the newcomers). Returns the index in `selected` of the
-/// effect it replaces, and the newcomer's fit, candidate and model. An effect found in il is
-/// never swapped out (its evidence is not in vout).
+/// The swaps `tried` that are findings (each fitted once, the best chosen with
+/// [`best_material`]): the selected effect owning the displaced parameter taken out of the
+/// model so far (`stack`, fitted as `against`), the newcomer fitted in its place and judged
+/// against `against` as a model not nested in it (a late reading in il too, the filter read
+/// late among the newcomers). Each is the index in `selected` of the effect it replaces, and
+/// the newcomer's fit, candidate and model. An effect found in il is never swapped out (its
+/// evidence is not in vout).
 #[allow(clippy::too_many_arguments)]
-fn swap(
+fn swaps(
     data: &DataSet,
     nominal: &Params,
     selected: &[EffectFit],
@@ -896,7 +901,7 @@ fn swap(
     n_est: usize,
     holdout: f64,
     baseline: &Baseline,
-) -> Option<(usize, (EffectFit, Candidate, Stack))> {
+) -> Vec<(usize, (EffectFit, Candidate, Stack))> {
     let owner = |lost: Free| {
         let key = if lost == Free::RL { "series_resistance" } else { lost.name() };
         selected.iter().position(|e| e.params.contains_key(key) && !e.late_in_il())
@@ -907,7 +912,7 @@ fn swap(
             unique.push(s);
         }
     }
-    let swaps: Vec<(usize, (EffectFit, Candidate, Stack))> = unique
+    unique
         .into_par_iter()
         .filter_map(|s| {
             let k = owner(s.lost)?;
@@ -922,8 +927,7 @@ fn swap(
             let fit = fit.into_step();
             fit.finding.then_some((k, (fit, cand, x.stack)))
         })
-        .collect();
-    best_material(swaps.into_iter(), |s| &s.1.0)
+        .collect()
 }
 
 /// Sets every selected effect's parameters (and CI95) to their values in the final model, where
