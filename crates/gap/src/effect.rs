@@ -1174,6 +1174,14 @@ impl std::fmt::Display for ClCheck {
 /// periods, not filter the ripple; a fit that runs there stands in for something else.
 pub(crate) const MAX_FILTER: f64 = 2.0;
 
+/// Largest gain error of the `vout` reading taken as `sensor_gain`: a divider's resistors, a
+/// probe's attenuation and an ADC's reference put it within a few per cent. Beyond ±10 % the
+/// reading is not miscalibrated but scaled wrong (a probe's ×10 set as ×1, which the data's
+/// scale is for: `buckid convert --column vout=CH1*10`), and a fit that runs there stands in
+/// for a mechanism: a third-generator diode buck in deep DCM with L 13 % high was named a
+/// 21 % gain error, its diode's fit having ended on its bound.
+pub(crate) const MAX_GAIN_ERROR: f64 = 0.1;
+
 /// Whether the instant of a reading in the circuit `p` ended on a bound of its range at the
 /// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
 /// PWM, its earliest at the period start (a fixed instant's log scale never reaches zero).
@@ -1211,7 +1219,8 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
         || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range))
-        || t.params.get(Free::VoutFilter.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND));
+        || t.params.get(Free::VoutFilter.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND))
+        || t.params.get(Free::VoutGainError.name()).is_some_and(|g| g.abs() > MAX_GAIN_ERROR);
     let fit = EffectFit {
         name,
         params: t.params,
