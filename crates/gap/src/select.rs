@@ -841,7 +841,7 @@ pub(crate) fn forward(
         }
         // A model that misses grossly is no place to linearize a drift: a diode buck in deep
         // DCM with L 18 % low had its Cl run to 906 µF to hide the charge it missed, where the
-        // 1 % probe of L promised nothing and L's fit closed the gap to the noise floor. There,
+        // 1 % probe of L promised nothing and L's fit closed 99.99 % of the gap. There,
         // when nothing screened is material, the drifts of L, C and Rc not yet fitted are.
         if !drifts.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
             let fitted = fitted_drifts.lock().map(|d| d.clone()).unwrap_or_default();
