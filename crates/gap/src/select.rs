@@ -783,7 +783,8 @@ pub(crate) fn forward(
             if late_pending {
                 rest.clear();
             }
-            let gap_power = baseline.floor.map_or(0.0, |f| rms(&residual(&against)).powi(2) - f * f).max(0.0);
+            let against_rms = rms(&residual(&against));
+            let gap_power = baseline.floor.map_or(0.0, |f| against_rms.powi(2) - f * f).max(0.0);
             // The late reading alone first; the filter read late only where il shows the instant
             // (the late reading's fit explains il, or the best instant on il alone does) but the
             // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
@@ -799,7 +800,7 @@ pub(crate) fn forward(
                 }
                 t
             };
-            if gross_miss(rms(&residual(&against)), baseline.floor, baseline.swing).is_some() {
+            if gross_miss(against_rms, baseline.floor, baseline.swing).is_some() {
                 drifts = rest.iter().filter(|x| x.name == "param_drift").cloned().collect();
             }
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
@@ -835,15 +836,17 @@ pub(crate) fn forward(
                 break;
             }
         }
+        // Nothing taken yet: no late reading il shows, no material step.
+        let nothing_taken = |trials: &[(EffectFit, Candidate, Stack)]| !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none();
         // Where no round fitted them (no circuit extension was screened in).
-        if !settled && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
+        if !settled && nothing_taken(&trials) {
             trials.extend(readings.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
         // A model that misses grossly is no place to linearize a drift: a diode buck in deep
         // DCM with L 18 % low had its Cl run to 906 µF to hide the charge it missed, where the
         // 1 % probe of L promised nothing and L's fit closed 99.99 % of the gap. There,
         // when nothing screened is material, the drifts of L, C and Rc not yet fitted are.
-        if !drifts.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) && best_material(trials.iter(), |t| &t.0).is_none() {
+        if !drifts.is_empty() && nothing_taken(&trials) {
             let fitted = fitted_drifts.lock().map(|d| d.clone()).unwrap_or_default();
             drifts.retain(|x| !fitted.iter().any(|f| f.as_slice() == x.added()));
             trials.extend(drifts.par_iter().filter_map(try_one).collect::<Vec<_>>());
