@@ -2,7 +2,9 @@
 //! failed `assert`) would end a run with the shell's bare "Segmentation fault", whatever was
 //! printed before. A command that loads an FMU therefore runs again in a child process (the
 //! same executable and arguments, the same standard streams), and this process says how the
-//! child ended when a signal ended it.
+//! child ended when a signal ended it. The child's temporary files (the extracted FMU among
+//! them) go to a folder of this process's that is removed however the child ended: a crashed
+//! child cannot clean up after itself.
 use std::path::Path;
 use std::process::{Command, ExitCode, ExitStatus};
 
@@ -18,7 +20,14 @@ pub fn supervise(fmu: &Path) -> Option<ExitCode> {
         return None;
     }
     let exe = std::env::current_exe().ok()?;
-    let status = Command::new(exe).args(std::env::args_os().skip(1)).env(CHILD, "1").status().ok()?;
+    let mut child = Command::new(exe);
+    child.args(std::env::args_os().skip(1)).env(CHILD, "1");
+    // Removed when dropped, after the child ended.
+    let scratch = tempfile::Builder::new().prefix("buckid-").tempdir().ok();
+    if let Some(dir) = &scratch {
+        child.env("TMPDIR", dir.path());
+    }
+    let status = child.status().ok()?;
     Some(exit(status, fmu))
 }
 

@@ -41,7 +41,12 @@ fn build(dir: &Path, define: Option<&str>) -> PathBuf {
 }
 
 fn identify(fmu: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_buckid")).args(["identify", "--fmu"]).arg(fmu).args(["--samples", "200"]).output().expect("run buckid")
+    identify_in(fmu, &std::env::temp_dir())
+}
+
+/// `identify` with `temp` for the temporary folder (`TMPDIR`).
+fn identify_in(fmu: &Path, temp: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_buckid")).args(["identify", "--fmu"]).arg(fmu).args(["--samples", "200"]).env("TMPDIR", temp).output().expect("run buckid")
 }
 
 #[test]
@@ -65,15 +70,20 @@ fn misbehaving_fmus_are_reported_by_function_and_exit_non_zero() {
 }
 
 /// The FMU's fault ends the child process that loaded it (`isolate`); `buckid` itself exits 1
-/// with an error naming the FMU and the signal, after what the run printed before it.
+/// with an error naming the FMU and the signal, after what the run printed before it, and
+/// leaves no extracted FMU behind in the temporary folder.
 #[test]
 fn a_segfaulting_fmu_is_reported_not_fatal() {
     let tmp = tempfile::tempdir().unwrap();
     let fmu = build(tmp.path(), Some("SEGFAULT_DOSTEP"));
-    let identified = identify(&fmu);
+    let temp_root = tempfile::tempdir().unwrap();
+    let identified = identify_in(&fmu, temp_root.path());
     // What the run printed before the fault is kept.
     assert!(String::from_utf8_lossy(&identified.stderr).contains("running"));
-    for out in [identified, Command::new(env!("CARGO_BIN_EXE_buckid")).args(["simulate", "--fmu"]).arg(&fmu).output().expect("run buckid")] {
+    let simulated = Command::new(env!("CARGO_BIN_EXE_buckid")).args(["simulate", "--fmu"]).arg(&fmu).env("TMPDIR", temp_root.path()).output().expect("run buckid");
+    let left: Vec<_> = std::fs::read_dir(temp_root.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert!(left.is_empty(), "the crashed runs left {left:?}");
+    for out in [identified, simulated] {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{}: {stderr}", out.status);
         let needle = format!("error: the run of the FMU {} was ended by signal 11 (SIGSEGV: an invalid memory access)", fmu.display());
