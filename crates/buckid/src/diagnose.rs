@@ -204,6 +204,9 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
     if let Some(d) = e.drift_percent {
         out.push(format!("{d:+.2} % from nominal"));
     }
+    if let Some(stand_in) = &e.stand_in {
+        out.push(stand_in.clone());
+    }
     if let Some(c) = e.il_closed_percent {
         out.push(format!("closes {c:.1} % of il's gap over its floor"));
     }

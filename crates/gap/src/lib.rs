@@ -499,6 +499,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         None => locate::Floor::Residual(selected.last().map_or(&residual, |e| &e.residual)),
     };
     let location = locate::locate(data, n_est, &residual, floor);
+    // Values beyond the devices they name, said where they stand (single fits and the final model).
+    for e in effects.iter_mut().chain(selected.iter_mut()) {
+        e.stand_in = e.beyond_the_device();
+    }
     let measured = base.validation.traces.measured.clone();
     let after = selected.last().map(|e| measured.iter().zip(&e.residual).map(|(m, r)| m - r).collect());
     let traces = Traces { start: n_est, nominal: base.validation.traces.simulated.clone(), measured, after };

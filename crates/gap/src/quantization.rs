@@ -109,6 +109,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         finding: material,
         ruled_out_above: None,
         il_closed_percent: None,
+        stand_in: None,
         cl_test_failed_without: None,
         residual,
     })
