@@ -110,11 +110,51 @@ pub struct ClMove {
     /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
+    /// For a final model at the floor: an equally good model from another first step
+    /// ([`crate::select::twin`]) whose Cl lies outside its interval; the interval spans both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub twin: Option<Twin>,
     /// For a final model whose inductor current the measured one matches only through a probe
     /// gain far beyond a probe's tolerance (Cl is then not identified), or through a reading
     /// that slipped (reversed, rescaled): how it misses.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub current_misfit: Option<crate::CurrentMisfit>,
+}
+
+/// A model as good as the final one, from another first step, whose Cl differs: the data does
+/// not tell the two apart, so Cl's interval spans both.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Twin {
+    /// Its effects in the order selected, labelled ([`EffectFit::label`]).
+    pub selected: Vec<String>,
+    /// Its held-out residual [V RMS].
+    pub rms_after: f64,
+    /// Its Cl [F] and Cl's 95 % confidence interval [F].
+    pub cl: f64,
+    pub ci95: [f64; 2],
+}
+
+impl Twin {
+    /// The interval `ci95` spanning the twin's too (an interval not identified stays so).
+    pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
+        if !(ci95[0] > 0.0 && ci95[1].is_finite()) {
+            return ci95;
+        }
+        [ci95[0].min(self.ci95[0]), ci95[1].max(self.ci95[1])]
+    }
+}
+
+impl std::fmt::Display for Twin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [lo, hi] = self.ci95.map(|v| v * 1e6);
+        write!(
+            f,
+            "as good a model ({}, {:.3} mV held out) has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the data does not tell them apart, and the interval spans both",
+            self.selected.join(", "),
+            self.rms_after * 1e3,
+            self.cl * 1e6
+        )
+    }
 }
 
 impl ClMove {
@@ -129,6 +169,9 @@ impl ClMove {
         }
         if let Some(v) = self.operating_point {
             test += &format!("; read at the operating point, the time-averaged vout of {v:.3} V (the samples' mean is one phase of the ripple)");
+        }
+        if let Some(twin) = &self.twin {
+            test += &format!("; {twin}");
         }
         if let Some(k) = self.widened_by {
             test += &format!("; widened ×{k:.2} for the model error the residual still shows");
@@ -187,6 +230,7 @@ impl ClMove {
             misses_by_floors: None,
             deep_dcm_miss: None,
             operating_point: None,
+            twin: None,
             current_misfit: None,
         };
         cl.moved_from(cl_before);
@@ -1383,6 +1427,17 @@ mod tests {
         assert!(with("vout_gain_error", 0.3).is_some_and(|s| s.contains("+30 %")));
         // Other values are never judged so (a switch's 10 Ω is a bound's business).
         assert_eq!(with("switch_resistance", 10.0), None);
+    }
+
+    /// Cl's interval spans a twin model's where it is identified; one not identified stays so
+    /// (a twin cannot make a Cl known).
+    #[test]
+    fn a_twin_model_widens_an_interval_it_does_not_replace() {
+        let twin = Twin { selected: vec!["param_drift (L)".to_string()], rms_after: 1.5e-3, cl: 18.8e-6, ci95: [18.7e-6, 18.9e-6] };
+        assert_eq!(twin.spanned([23.1e-6, 23.4e-6]), [18.7e-6, 23.4e-6]);
+        assert_eq!(twin.spanned([18.0e-6, 19.0e-6]), [18.0e-6, 19.0e-6]);
+        assert_eq!(twin.spanned([0.0, f64::INFINITY]), [0.0, f64::INFINITY]);
+        assert!(twin.to_string().contains("param_drift (L)") && twin.to_string().contains("18.8000 µF"), "{twin}");
     }
 
     /// A fit judged against a model in a worse minimum than another fit of it (`rms_best`):

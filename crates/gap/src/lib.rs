@@ -400,6 +400,37 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             };
         }
     }
+    // A path at the floor: the path from a first step nearly as good that puts Cl elsewhere
+    // (see `select::twin`). Where it ends at the floor too, Cl's interval spans both; where it
+    // also leaves less held out with no more effects, it is taken instead.
+    let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
+    let taken = effects.iter().find(|e| e.name == from);
+    let twin_of = |s: &[EffectFit]| {
+        let end = s.last().filter(at_floor).filter(|e| estimator::validate::identified(e.cl.ci95))?;
+        Some(effect::Twin { selected: s.iter().map(EffectFit::label).collect(), rms_after: end.rms_after, cl: end.cl.estimate, ci95: end.cl.ci95 })
+    };
+    let twin_first = selected.last().filter(at_floor).zip(taken).and_then(|(last, taken)| select::twin(&effects, taken, last.cl.ci95, &tried));
+    let twin = twin_first.and_then(|other_first| {
+        let (other, other_ended) = path(other_first);
+        let twin = twin_of(&other)?;
+        let this = selected.last()?;
+        // The same effects by another path are the same model.
+        let sorted = |s: &[EffectFit]| {
+            let mut labels: Vec<String> = s.iter().map(EffectFit::label).collect();
+            labels.sort();
+            labels
+        };
+        if sorted(&other) == sorted(&selected) {
+            return None;
+        }
+        if other.len() <= selected.len() && twin.rms_after < this.rms_after {
+            let before = format!("the path from {from} ended as well with more effects or more left: {selection_ended}");
+            let replaced = twin_of(&selected);
+            (selected, selection_ended) = (other, format!("{other_ended} (from {}, where {before})", other_first.name));
+            return replaced;
+        }
+        Some(twin)
+    });
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.
     let check = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
@@ -472,6 +503,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
+        }
+        if let Some(twin) = twin {
+            last.cl.ci95 = twin.spanned(last.cl.ci95);
+            last.cl.twin = Some(twin);
         }
         // A model whose inductor current the measured one matches only through an implausible
         // probe gain has the wrong impedance: its Cl is not the converter's.
