@@ -117,13 +117,17 @@ fn significant(v: f64, digits: usize) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Digits that resolve an interval's half-width to about two significant digits.
+/// Digits that resolve the estimate's distance to the nearer bound of its interval (its
+/// half-width where the estimate sits on a bound) to about two significant digits: a lopsided
+/// interval, 23.15 µF within [18.74, 23.39] µF (Cl spanning another model's), would read
+/// "23 µF (CI95 19 µF … 23 µF)" at its half-width's digits.
 fn digits_for(value: f64, [lo, hi]: [f64; 2]) -> usize {
-    let half = 0.5 * (hi - lo);
-    if !(half > 0.0 && value != 0.0) {
+    let near = (value - lo).min(hi - value);
+    let resolved = if near > 0.0 { near } else { 0.5 * (hi - lo) };
+    if !(resolved > 0.0 && value != 0.0) {
         return 4;
     }
-    ((value.abs().log10() - half.log10()).floor() as i64 + 2).clamp(2, 7) as usize
+    ((value.abs().log10() - resolved.log10()).floor() as i64 + 2).clamp(2, 7) as usize
 }
 
 /// `value` with its CI95, as `437 mV [412, 462] mV`, or `437 mV (not identified)` when the
@@ -173,6 +177,8 @@ mod tests {
         assert_eq!(with_ci(1e-9, Some([1.9350e-144, 6.2289e137]), "H"), "1.00 nH (not identified)");
         assert_eq!(with_ci(1e-9, Some([0.0, f64::INFINITY]), "H"), "1.00 nH (not identified)");
         assert_eq!(with_ci(0.4367, Some([0.4120, 0.4620]), "V"), "437 mV (CI95 412 mV … 462 mV)");
+        assert_eq!(with_ci(23.153e-6, Some([18.741e-6, 23.385e-6]), "F"), "23.2 µF (CI95 18.7 µF … 23.4 µF)");
+        assert_eq!(with_ci(18.8e-6, Some([18.8e-6, 23.4e-6]), "F"), "19 µF (CI95 19 µF … 23 µF)");
         // A signed quantity (an offset) is identified below zero too, not across it.
         assert_eq!(with_ci(-0.0101, Some([-0.0104, -0.0098]), "V"), "-10.1 mV (CI95 -10.4 mV … -9.80 mV)");
         assert_eq!(with_ci(0.0002, Some([-0.0001, 0.0005]), "V"), "200 µV (not identified)");
