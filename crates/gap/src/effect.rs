@@ -129,8 +129,9 @@ pub struct Twin {
     pub selected: Vec<String>,
     /// Its held-out residual [V RMS].
     pub rms_after: f64,
-    /// Its Cl [F] and Cl's 95 % confidence interval [F].
+    /// Its Cl [F].
     pub cl: f64,
+    /// Cl's 95 % confidence interval under it [F].
     pub ci95: [f64; 2],
 }
 

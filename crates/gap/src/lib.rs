@@ -424,7 +424,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             return None;
         }
         if other.len() <= selected.len() && twin.rms_after < this.rms_after {
-            let before = format!("the path from {from} ended as well with more effects or more left: {selection_ended}");
+            let before = format!(
+                "the path from {from} ended at the floor too, with {} effects and {:.3} mV held out against {:.3}: {selection_ended}",
+                selected.len(),
+                this.rms_after * 1e3,
+                twin.rms_after * 1e3
+            );
             let replaced = twin_of(&selected);
             (selected, selection_ended) = (other, format!("{other_ended} (from {}, where {before})", other_first.name));
             return replaced;
