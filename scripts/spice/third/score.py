@@ -107,8 +107,17 @@ def interval_ok(ci):
 DCM_SHARE = 0.02
 
 
-def score_case(truth, dx, lenient_dcm=False):
-    """(scored effects, named flags, all named, none ok or None, Cl in CI, Cl estimate, ci)."""
+def drifts_freed(dx):
+    """The values (L, C, Rc) the selected ``param_drift`` steps free."""
+    return {k for e in dx.get("selected") or [] if e["name"] == "param_drift" for k in ("L", "C", "Rc") if k in e.get("params", {})}
+
+
+def score_case(truth, dx, lenient_dcm=False, strict_drift=False):
+    """(scored effects, named flags, all named, none ok or None, Cl in CI, Cl estimate, ci).
+
+    ``param_drift`` counts as named when a drift is selected, whichever value it frees; with
+    ``strict_drift`` only when it frees a value the generator drew drifted (an L drift named
+    where C drifted is the wrong effect to an engineer)."""
     effects = [e for e in truth["effects"] if e != "sample_delay"]
     names = [e["name"] for e in dx.get("selected") or []]
     flags = []
@@ -117,6 +126,8 @@ def score_case(truth, dx, lenient_dcm=False):
             flags.append("dcm" in names or "diode_drop" in names)
         elif e == "dcm":
             flags.append("dcm" in names or (dx.get("dcm_share") or 0.0) > DCM_SHARE)
+        elif e == "param_drift" and strict_drift:
+            flags.append(bool(drifts_freed(dx) & set(truth.get("drifted") or [])))
         else:
             flags.append(e in names)
     cl, ci = final_cl(dx)
@@ -155,6 +166,7 @@ def table(rows, title):
     eff_total = sum(len(r["effects"]) for r in rows if r["dx"])
     eff_named = sum(sum(r["flags"]) for r in rows if r["dx"])
     eff_named_l = sum(sum(r["flags_l"]) for r in rows if r["dx"])
+    eff_named_s = sum(sum(r["flags_s"]) for r in rows if r["dx"])
     cases_eff = [r for r in rows if r["dx"] and r["effects"]]
     all_named = sum(1 for r in cases_eff if r["all"])
     all_named_l = sum(1 for r in cases_eff if r["all_l"])
@@ -167,6 +179,7 @@ def table(rows, title):
     lines = [f"### {title}", "", "| score | value |", "|---|---|",
              f"| withheld effects named (`sample_delay` set aside) | {pct(eff_named, eff_total)} |",
              f"| … with `dcm` counted via `diode_drop` | {pct(eff_named_l, eff_total)} |",
+             f"| … with `param_drift` counted only for the value drawn drifted | {pct(eff_named_s, eff_total)} |",
              f"| every effect of a case named | {pct(all_named, len(cases_eff))} |",
              f"| … with `dcm` counted via `diode_drop` | {pct(all_named_l, len(cases_eff))} |",
              f"| `none` on clean cases | {pct(none_ok, len(clean))} |",
@@ -209,7 +222,7 @@ def main(argv=None):
     for f, k, j, *_ in jobs:
         csv, truth_path, diag, log = paths(a.out, f, k, j)
         row = dict(family=f, kind=k, j=j, dx=None, seconds=None, error=gen_err.get((f, k, j)), effects=[], flags=[],
-                   flags_l=[], all=None, all_l=None, none_ok=None, cl_in=False, truth=None)
+                   flags_l=[], flags_s=[], all=None, all_l=None, none_ok=None, cl_in=False, truth=None)
         rows.append(row)
         if row["error"]:
             row["error"] = "generation: " + row["error"]
@@ -224,7 +237,8 @@ def main(argv=None):
         if dx:
             effects, flags, all_, none_ok, inside, cl, ci = score_case(truth, dx)
             _, flags_l, all_l, _, _, _, _ = score_case(truth, dx, lenient_dcm=True)
-            row.update(effects=effects, flags=flags, flags_l=flags_l, all=all_, all_l=all_l, none_ok=none_ok,
+            flags_s = score_case(truth, dx, strict_drift=True)[1]
+            row.update(effects=effects, flags=flags, flags_l=flags_l, flags_s=flags_s, all=all_, all_l=all_l, none_ok=none_ok,
                        cl_in=inside, cl=cl, ci=ci)
     out = [f"## buckid diagnose on the third generator (seed {a.seed}, {a.per_kind} per family and kind)", ""]
     for f in families:

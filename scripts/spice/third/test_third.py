@@ -175,6 +175,19 @@ def test_dcm_is_scored_named_from_the_reported_regime():
     assert flags == [True, True]
 
 
+def test_a_drift_is_scored_strictly_only_for_the_value_drawn():
+    """A ``param_drift`` that frees L counts as named where C drifted, as it always has, and
+    strictly only where L itself was drawn drifted."""
+    import score
+
+    truth = {"effects": ["param_drift", "sample_delay"], "kind": "single", "cl_true": 1e-6, "drifted": ["C"]}
+    step = {"name": "param_drift", "params": {"L": 3.1e-6, "L_nominal": 3.3e-6}, "cl": {"estimate": 1e-6, "ci95": [0.9e-6, 1.1e-6]}}
+    dx = {"verdict": "param_drift", "selected": [step]}
+    assert score.score_case(truth, dx)[1] == [True]
+    assert score.score_case(truth, dx, strict_drift=True)[1] == [False]
+    assert score.score_case(dict(truth, drifted=["L"]), dx, strict_drift=True)[1] == [True]
+
+
 def test_an_off_fet_blocks_its_supply():
     # Reference: a MOSFET with its gate at its source blocks the supply (what a datasheet's
     # IDSS states: microamperes). Level 3 lowers the threshold by ETA*8.15e-22/(COX*L^3)*Vds;
