@@ -95,10 +95,10 @@ impl BiasLawSpread {
     /// does not resolve the shape ([`Self::resolved`]): a type-B term, added after any
     /// widening for the model error (the shape's spread is no statistical error to inflate).
     pub fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
-        if self.resolved() || !(ci95[0] > 0.0 && ci95[1].is_finite()) {
+        if self.resolved() {
             return ci95;
         }
-        [ci95[0].min(self.law_ci95[0]).min(self.other_ci95[0]), ci95[1].max(self.law_ci95[1]).max(self.other_ci95[1])]
+        crate::effect::spanning(ci95, &[self.law_ci95, self.other_ci95])
     }
 }
 

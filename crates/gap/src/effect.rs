@@ -138,11 +138,18 @@ pub struct Twin {
 impl Twin {
     /// The interval `ci95` spanning the twin's too (an interval not identified stays so).
     pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
-        if !(ci95[0] > 0.0 && ci95[1].is_finite()) {
-            return ci95;
-        }
-        [ci95[0].min(self.ci95[0]), ci95[1].max(self.ci95[1])]
+        spanning(ci95, &[self.ci95])
     }
+}
+
+/// Cl's interval `ci95` spanning the intervals `others` (other models' of the same data); one
+/// that identifies nothing (not positive, or infinite) stays as it is: no other model makes a
+/// Cl known.
+pub(crate) fn spanning(ci95: [f64; 2], others: &[[f64; 2]]) -> [f64; 2] {
+    if !(ci95[0] > 0.0 && ci95[1].is_finite()) {
+        return ci95;
+    }
+    others.iter().fold(ci95, |[lo, hi], o| [lo.min(o[0]), hi.max(o[1])])
 }
 
 impl std::fmt::Display for Twin {
@@ -1254,7 +1261,7 @@ pub(crate) const MAX_GAIN_ERROR: f64 = 0.1;
 
 /// Largest forward drop of a freewheeling diode [V]: a Schottky drops 0.2–0.7 V, a fast silicon
 /// diode up to about 1.3 V and a SiC Schottky up to about 1.8 V at its rated current.
-pub const MAX_DIODE_DROP: f64 = 2.0;
+pub(crate) const MAX_DIODE_DROP: f64 = 2.0;
 
 /// Whether the instant of a reading in the circuit `p` ended on a bound of its range at the
 /// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
