@@ -321,7 +321,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let first = late_in_il.or(ripple).or_else(|| select::best_material(effects.iter(), |e| e));
     // Forward selection from a first step, then the backward step and the joint refit; a full
     // sequence that the joint refit does not settle also goes on, one effect at a time (the
-    // joint refit frees no ESL, load ESR or bias law).
+    // joint refit frees no ESL or bias law).
     let path = |first: &EffectFit| {
         let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
         let (mut selected, mut ended) = forward(std::slice::from_ref(first), select::MAX_EFFECTS);

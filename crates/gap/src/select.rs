@@ -37,7 +37,7 @@ pub(crate) const MAX_EFFECTS: usize = 4;
 /// (or does not apply): a guard, not a budget (it ends when nothing material is left). A real
 /// board carries four or five effects at once, and a late reading and the switch node's
 /// capacitance take steps of their own: cut at four, 14 of the third generator's 34 missed
-/// effects were in full sequences, and the joint refit frees no ESL, load ESR or bias law.
+/// effects were in full sequences, and the joint refit frees no ESL or bias law.
 pub(crate) const MAX_EFFECTS_GOING_ON: usize = 8;
 
 /// Extra series resistance tried as starts on top of the model's `RL` [Ω].
