@@ -103,7 +103,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         (Some(f), Some(path)) => {
             eprintln!("running {} on the data's inputs", path.display());
             let (model_name, mode, circuit) = (f.model_name().to_string(), f.nominal().and_then(Result::ok), f.circuit.clone());
-            let run = f.run(&data, dx.traces.start, dx.gap_before.cl, map)?;
+            // Driven, as the diagnosis's models were, by the measured inputs' levels.
+            let run = f.run(&estimator::inputs::average_measured(&data).0, dx.traces.start, dx.gap_before.cl, map)?;
             let out = FmuOut { path: path.display().to_string(), model_name, mode, circuit, cl: run.cl, nrmse: run.nrmse };
             Some((out, run.simulated))
         }
@@ -111,6 +112,9 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     };
 
     println!("source      {}", args.data.display());
+    for input in &dx.inputs_averaged {
+        println!("input       {input}");
+    }
     let nominal_cl = dx.gap_before.cl_not_identified().map_or(String::new(), |why| format!(", {why}"));
     println!("gap before  held-out NRMSE {:.4} ({} model, Cl {:.4} µF{nominal_cl})", dx.gap_before.nrmse, name(dx.nominal), dx.gap_before.cl * 1e6);
     if let Some((f, _)) = &fmu_out {

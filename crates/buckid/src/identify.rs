@@ -338,6 +338,11 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             eprintln!("reading {}", path.display());
             let data = DataSet::read_csv(path)?;
             data.check_output_level()?;
+            // A measured vin or io drives the model with its levels, not its noise.
+            let (data, averaged) = estimator::inputs::average_measured(&data);
+            for input in &averaged {
+                eprintln!("input: {input}");
+            }
             (data, None, args.holdout, path.display().to_string())
         }
         (None, None) => bail!("give --fmu PATH or --data FILE"),

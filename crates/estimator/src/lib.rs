@@ -13,6 +13,7 @@ mod error;
 pub mod experiment;
 pub mod fmu_plant;
 pub mod identify;
+pub mod inputs;
 pub mod model;
 pub mod noise;
 pub mod pem;

@@ -205,6 +205,10 @@ pub struct Diagnosis {
     pub cl_at_fidelity: bool,
     /// The nominal model used.
     pub nominal: Nominal,
+    /// The inputs (`vin`, `io`) recorded by a measurement, replaced by their levels before any
+    /// fit (see [`estimator::inputs`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub inputs_averaged: Vec<estimator::inputs::AveragedInput>,
     /// Held-out traces for plots.
     #[serde(skip)]
     pub traces: Traces,
@@ -290,6 +294,9 @@ fn leverage(data: &DataSet, nominal: &Params, selected: &[EffectFit], circuit: O
 /// fitted (e.g. deep DCM, far from any linear model) the plant simulator itself with Cl free
 /// stands in for it.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
+    // A measured vin or io drives the simulations with the levels it measured, not its noise.
+    let (data, inputs_averaged) = estimator::inputs::average_measured(data);
+    let data = &data;
     // A law the nominal brings is read at its own reference; one the diagnosis fits, at the
     // converter's operating point.
     let own_bias_law = nominal.cap_dc_bias > 0.0;
@@ -558,6 +565,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         cl_leverage,
         cl_at_fidelity,
         nominal: opts.nominal,
+        inputs_averaged,
         traces,
     })
 }
