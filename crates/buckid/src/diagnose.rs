@@ -103,8 +103,11 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         (Some(f), Some(path)) => {
             eprintln!("running {} on the data's inputs", path.display());
             let (model_name, mode, circuit) = (f.model_name().to_string(), f.nominal().and_then(Result::ok), f.circuit.clone());
-            // Driven, as the diagnosis's models were, by the measured inputs' levels.
-            let run = f.run(&estimator::inputs::average_measured(&data).0, dx.traces.start, dx.gap_before.cl, map)?;
+            // Driven as the diagnosis's models were: by the measured inputs' levels where it
+            // replaced them.
+            let replaced = dx.measured_inputs.iter().any(|m| m.replaced);
+            let driven = if replaced { estimator::inputs::average_measured(&data).0 } else { data.clone() };
+            let run = f.run(&driven, dx.traces.start, dx.gap_before.cl, map)?;
             let out = FmuOut { path: path.display().to_string(), model_name, mode, circuit, cl: run.cl, nrmse: run.nrmse };
             Some((out, run.simulated))
         }
@@ -112,7 +115,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
     };
 
     println!("source      {}", args.data.display());
-    for input in &dx.inputs_averaged {
+    for input in &dx.measured_inputs {
         println!("input       {input}");
     }
     let nominal_cl = dx.gap_before.cl_not_identified().map_or(String::new(), |why| format!(", {why}"));

@@ -338,11 +338,6 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             eprintln!("reading {}", path.display());
             let data = DataSet::read_csv(path)?;
             data.check_output_level()?;
-            // A measured vin or io drives the model with its levels, not its noise.
-            let (data, averaged) = estimator::inputs::average_measured(&data);
-            for input in &averaged {
-                eprintln!("input: {input}");
-            }
             (data, None, args.holdout, path.display().to_string())
         }
         (None, None) => bail!("give --fmu PATH or --data FILE"),
@@ -376,7 +371,12 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         holdout,
     };
     eprintln!("fitting {} samples", data.len());
-    let id = identify(&data, &nominal, &opts)?;
+    // A measured vin or io drives the model with its levels, unless vout shows the converter's
+    // response to its noise.
+    let (data, id, measured) = estimator::inputs::drive_by_levels_unless_seen(&data, |d| identify(d, &nominal, &opts), |id| id.best().fit.params)?;
+    for input in &measured {
+        eprintln!("input: {input}");
+    }
     // Data from a file is a circuit's (SPICE or a bench), which the model only approximates: a
     // fit of Cl alone has its interval tested as the diagnosis tests its own. An FMU's recording
     // is a model's, of known fidelity only when it is this one's, so its interval stays the

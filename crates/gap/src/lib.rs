@@ -205,10 +205,10 @@ pub struct Diagnosis {
     pub cl_at_fidelity: bool,
     /// The nominal model used.
     pub nominal: Nominal,
-    /// The inputs (`vin`, `io`) recorded by a measurement, replaced by their levels before any
-    /// fit (see [`estimator::inputs`]).
+    /// The inputs (`vin`, `io`) recorded by a measurement, and whether they were replaced by
+    /// their levels before the fits (see [`estimator::inputs`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub inputs_averaged: Vec<estimator::inputs::AveragedInput>,
+    pub measured_inputs: Vec<estimator::inputs::MeasuredInput>,
     /// Held-out traces for plots.
     #[serde(skip)]
     pub traces: Traces,
@@ -294,18 +294,21 @@ fn leverage(data: &DataSet, nominal: &Params, selected: &[EffectFit], circuit: O
 /// fitted (e.g. deep DCM, far from any linear model) the plant simulator itself with Cl free
 /// stands in for it.
 pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Result<Diagnosis, GapError> {
-    // A measured vin or io drives the simulations with the levels it measured, not its noise.
-    let (data, inputs_averaged) = estimator::inputs::average_measured(data);
-    let data = &data;
     // A law the nominal brings is read at its own reference; one the diagnosis fits, at the
     // converter's operating point.
     let own_bias_law = nominal.cap_dc_bias > 0.0;
     let nominal = &bias_reference(nominal, data);
-    let base = match identify(data, nominal, &nominal_options(opts)) {
-        Err(_) if opts.nominal == Nominal::Switched => identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?,
-        fit => fit?,
+    let fit_nominal = |data: &DataSet| -> Result<Candidate, GapError> {
+        let id = match identify(data, nominal, &nominal_options(opts)) {
+            Err(_) if opts.nominal == Nominal::Switched => identify(data, nominal, &IdentifyOptions { structures: vec![Structure::Simulated], ..nominal_options(opts) })?,
+            fit => fit?,
+        };
+        Ok(id.best().clone())
     };
-    let base = base.best().clone();
+    // A measured vin or io drives every model with its levels, unless vout shows the
+    // converter's response to its noise.
+    let (data, base, measured_inputs) = estimator::inputs::drive_by_levels_unless_seen(data, fit_nominal, |c| c.fit.params)?;
+    let data = &data;
     let residual = effect::residual(&base);
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let baseline = effect::Baseline::of(data, &base, n_est, opts.tolerance);
@@ -565,7 +568,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         cl_leverage,
         cl_at_fidelity,
         nominal: opts.nominal,
-        inputs_averaged,
+        measured_inputs,
         traces,
     })
 }

@@ -62,7 +62,8 @@ const AVERAGED_FITS_FLOORS: f64 = 2.0;
 /// half by more than its 99 % point). A diode buck in DCM, a 5 V converter's dead time or a
 /// 1 MHz point-of-load's missed by volts, which hide the ripple's millivolts, are switched.
 pub fn nominal_for(data: &DataSet, nominal: &Params, holdout: f64) -> SwitchingEvidence {
-    // As the diagnosis sees it: measured inputs replaced by their levels.
+    // Measured inputs by their levels: whether the data shows its switching is no question of
+    // their noise.
     let data = &estimator::inputs::average_measured(data).0;
     let switched = |averaged_floors: f64, ripple_share: f64| SwitchingEvidence { averaged_floors, ripple_share, nominal: Nominal::Switched };
     let opts = IdentifyOptions { structures: vec![Structure::Averaged], free: vec![Free::Cl, Free::RL], holdout, ..IdentifyOptions::default() };

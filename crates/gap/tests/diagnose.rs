@@ -999,7 +999,7 @@ fn closed_loop_data_of_the_nominal_plant_is_none() {
 /// with 40 mA and 30 mV of white noise, as a bench's current probe and scope channel give them.
 /// Driven by the recorded noise, the simulation put it into vout, and no quiet window was left
 /// for the model-free noise floor; the measured inputs' levels are taken instead (said in
-/// `inputs_averaged`, each noise within 10 %), and the diagnosis is the clean data's: `none`,
+/// `measured_inputs`, each noise within 10 %), and the diagnosis is the clean data's: `none`,
 /// Cl inside its interval, the floor model-free.
 #[test]
 fn measured_inputs_drive_the_models_by_their_levels() {
@@ -1013,7 +1013,8 @@ fn measured_inputs_drive_the_models_by_their_levels() {
         series.iter_mut().for_each(|x| *x += noise.sample(&mut rng));
     }
     let dx = diagnose_switched(&measured);
-    let averaged: Vec<(&str, f64)> = dx.inputs_averaged.iter().map(|a| (a.column, a.noise)).collect();
+    assert!(dx.measured_inputs.iter().all(|m| m.replaced), "{:?}", dx.measured_inputs);
+    let averaged: Vec<(&str, f64)> = dx.measured_inputs.iter().map(|a| (a.column, a.noise)).collect();
     assert_eq!(averaged.iter().map(|a| a.0).collect::<Vec<_>>(), ["vin", "io"], "{averaged:?}");
     for ((_, noise), sigma) in averaged.iter().zip([0.03, 0.04]) {
         assert!((noise / sigma - 1.0).abs() < 0.1, "{averaged:?}");
@@ -1021,5 +1022,28 @@ fn measured_inputs_drive_the_models_by_their_levels() {
     assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
     assert_eq!(dx.location.noise_floor_from, gap::FloorSource::Differences);
     assert_final_cl_holds(&dx, CL);
-    assert!(diagnose_switched(&clean).inputs_averaged.is_empty(), "commanded inputs are left as they are");
+    assert!(diagnose_switched(&clean).measured_inputs.is_empty(), "commanded inputs are left as they are");
+}
+
+/// A load whose current itself carried 60 mA of white noise (a converter saw it: its vout was
+/// simulated with the noisy io): the model driven by the recorded io predicts vout better than
+/// by its level, so it is kept as recorded (`replaced` false), and the diagnosis is the clean
+/// data's.
+#[test]
+fn an_input_the_converter_saw_is_kept_as_recorded() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let truth = Params { cl: CL, ..Params::default() };
+    let mut d = data_at(plant(truth, Mode::Switched), 2.0);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let load = Normal::new(0.0, 0.06).unwrap();
+    d.io.iter_mut().for_each(|x| *x += load.sample(&mut rng));
+    let sensor = Normal::new(0.0, 2e-3).unwrap();
+    let vout = estimator::simulated::simulate(&truth, &d, d.vout[0]).unwrap();
+    d.vout = vout.iter().map(|v| v + sensor.sample(&mut rng)).collect();
+    let dx = diagnose_switched(&d);
+    assert_eq!(dx.measured_inputs.len(), 1, "{:?}", dx.measured_inputs);
+    assert!(!dx.measured_inputs[0].replaced, "{:?}", dx.measured_inputs);
+    assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
+    assert_final_cl_holds(&dx, CL);
 }

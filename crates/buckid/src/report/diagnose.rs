@@ -190,7 +190,7 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
         si(dx.gap_before.cl, "F", 4) + &dx.gap_before.cl_not_identified().map_or(String::new(), |why| format!(", {}", esc(&why))),
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {}.", esc(path), si(nrmse, "", 3))),
     ));
-    for input in &dx.inputs_averaged {
+    for input in &dx.measured_inputs {
         page.html(&format!("<p>Input: {}.</p>", esc(&input.to_string())));
     }
     page.figure("signature", signature.render()?);
