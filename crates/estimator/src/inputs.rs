@@ -68,19 +68,28 @@ pub struct MeasuredInput {
     pub replaced: bool,
 }
 
-impl std::fmt::Display for MeasuredInput {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let unit = if self.column == "io" { "A" } else { "V" };
-        write!(f, "{} measured, with {:.3e} {unit} RMS of white noise: ", self.column, self.noise)?;
+impl MeasuredInput {
+    /// Its unit.
+    pub fn unit(&self) -> &'static str {
+        if self.column == "io" { "A" } else { "V" }
+    }
+
+    /// What was done with it, and why.
+    pub fn what_was_done(&self) -> String {
         if self.replaced {
-            write!(
-                f,
+            format!(
                 "replaced by its levels (in {} segment(s) between its own steps, the mean or, where it moves with the duty, a line in it): vout shows no response to the noise, the instrument's, which a simulation driven by it would carry into vout",
                 self.segments
             )
         } else {
-            write!(f, "kept as recorded: vout shows the converter's response to the noise, so the converter saw it")
+            "kept as recorded: vout shows the converter's response to the noise, so the converter saw it".to_string()
         }
+    }
+}
+
+impl std::fmt::Display for MeasuredInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} measured, with {:.3e} {} RMS of white noise: {}", self.column, self.noise, self.unit(), self.what_was_done())
     }
 }
 
