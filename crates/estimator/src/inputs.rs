@@ -24,6 +24,7 @@ use serde::Serialize;
 use buck_model::Params;
 
 use crate::data::DataSet;
+use crate::noise::{GAIN, fourth_difference};
 use crate::simulated::simulate;
 
 /// A column's step between two rows, in multiples of its white noise's standard deviation,
@@ -50,9 +51,9 @@ const SEEN_SIGMAS: f64 = 5.0;
 /// Fewest rows for the noise to be estimated.
 const MIN_ROWS: usize = 100;
 
-/// `√C(8,4)`, the gain of a fourth difference on white noise, times the median of a standard
-/// normal's absolute value: the median of `|Δ⁴x|` over σ.
-const MEDIAN_DIFFERENCE: f64 = 8.366_600_265_340_756 * 0.674_489_750_196_081_7;
+/// The median of a standard normal's absolute value: `|Δ⁴x|` of white noise has its median at
+/// this times `√70·σ`.
+const MEDIAN_OF_ABS_NORMAL: f64 = 0.674_489_750_196_081_7;
 
 /// An input column recorded by a measurement.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -166,10 +167,10 @@ fn averaged_levels(duty: &[f64], series: &[f64]) -> Option<(Vec<f64>, f64, usize
     if repeats as f64 >= MAX_REPEAT_SHARE * (n - 1) as f64 {
         return None;
     }
-    let mut differences: Vec<f64> = series.windows(5).map(|y| (y[4] - 4.0 * y[3] + 6.0 * y[2] - 4.0 * y[1] + y[0]).abs()).collect();
+    let mut differences: Vec<f64> = series.windows(5).map(|y| fourth_difference(y).abs()).collect();
     let middle = differences.len() / 2;
     let (_, median, _) = differences.select_nth_unstable_by(middle, f64::total_cmp);
-    let noise = *median / MEDIAN_DIFFERENCE;
+    let noise = *median / (MEDIAN_OF_ABS_NORMAL * GAIN.sqrt());
     if !(noise.is_finite() && noise > 0.0) {
         return None;
     }

@@ -16,7 +16,12 @@ use crate::data::DataSet;
 const ORDER: usize = 4;
 
 /// `C(2·ORDER, ORDER)`: the variance gain of the difference on white noise.
-const GAIN: f64 = 70.0;
+pub(crate) const GAIN: f64 = 70.0;
+
+/// The fourth difference `Δ⁴y` of the five samples `y`.
+pub(crate) fn fourth_difference(y: &[f64]) -> f64 {
+    y[4] - 4.0 * y[3] + 6.0 * y[2] - 4.0 * y[1] + y[0]
+}
 
 /// Samples after an input step that are left out (the kink, a delay of up to two periods and
 /// the fast mode).
@@ -52,7 +57,7 @@ pub fn white_noise(data: &DataSet, series: &[f64]) -> Option<(f64, usize)> {
         run = if steady(k) { run + 1 } else { 0 };
         if run >= span {
             let y = &series[k - ORDER..=k];
-            let d = y[4] - 4.0 * y[3] + 6.0 * y[2] - 4.0 * y[1] + y[0];
+            let d = fourth_difference(y);
             sum += d * d;
             count += 1;
         }
@@ -89,7 +94,7 @@ mod tests {
         let data = DataSet { time: (0..n).map(|k| k as f64 / 330e3).collect(), duty, vin: vec![12.0; n], io: vec![1.0; n], vout, ..DataSet::default() };
         let est = noise_floor(&data).unwrap_or(f64::NAN);
         assert!((est / sigma - 1.0).abs() < 0.1, "estimate {est}, true {sigma}");
-        let raw: f64 = data.vout.windows(5).map(|y| (y[4] - 4.0 * y[3] + 6.0 * y[2] - 4.0 * y[1] + y[0]).powi(2)).sum::<f64>();
+        let raw: f64 = data.vout.windows(5).map(|y| fourth_difference(y).powi(2)).sum::<f64>();
         let raw = (raw / (n - 4) as f64 / GAIN).sqrt();
         assert!(raw > 1.5 * sigma, "steps kink the raw differences: {raw}");
     }
