@@ -105,9 +105,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
             let (model_name, mode, circuit) = (f.model_name().to_string(), f.nominal().and_then(Result::ok), f.circuit.clone());
             // Driven as the diagnosis's models were: by the measured inputs' levels where it
             // replaced them.
-            let replaced = dx.measured_inputs.iter().any(|m| m.replaced);
-            let driven = if replaced { estimator::inputs::average_measured(&data).0 } else { data.clone() };
-            let run = f.run(&driven, dx.traces.start, dx.gap_before.cl, map)?;
+            let levels = dx.measured_inputs.iter().any(|m| m.replaced).then(|| estimator::inputs::average_measured(&data).0);
+            let run = f.run(levels.as_ref().unwrap_or(&data), dx.traces.start, dx.gap_before.cl, map)?;
             let out = FmuOut { path: path.display().to_string(), model_name, mode, circuit, cl: run.cl, nrmse: run.nrmse };
             Some((out, run.simulated))
         }
