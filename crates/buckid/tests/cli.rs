@@ -696,6 +696,24 @@ fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
     }
 }
 
+/// A 0.26 µF load beside 100 µF behind a 78 ns dead time whose edges the model takes as ideal:
+/// the final model fails the interval's test (its high-pass refit puts Cl at 0.53 µF against
+/// 0.94 µF) and the data prefers the other bias law, whose own interval (0.943 µF ± 2 %) had
+/// replaced the widened one: Cl reported 3.6 times too large, confidently. The failed test
+/// widens whichever law's Cl is reported.
+#[test]
+fn a_failed_interval_test_widens_the_other_laws_cl_too() {
+    let (dx, truth) = diagnose_third("thesis-single-7301");
+    assert_eq!(truth["effects"], serde_json::json!(["dead_time"]));
+    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let cl = &last["cl"];
+    assert_eq!(cl["check"]["consistent"], false, "{cl}");
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::INFINITY);
+    let (lo, hi, cl_true) = (f(&cl["ci95"][0]), f(&cl["ci95"][1]), f(&truth["cl_true"]));
+    assert!(lo <= cl_true && cl_true <= hi, "Cl {} [{lo:e}, {hi:e}] for {cl_true:e}", cl["estimate"]);
+    assert!(lo <= f(&cl["check"]["high_pass"]) && f(&cl["check"]["high_pass"]) <= hi, "{cl}");
+}
+
 /// A capture too short for a model-free noise floor (200 periods: the PRBS steps too often for
 /// the differences between steps): the floor is the best model's residual, so no share of a gap
 /// above it exists, and the selection says so with the NRMSE's shrink instead of "no gap above

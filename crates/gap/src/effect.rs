@@ -1211,13 +1211,28 @@ impl ClCheck {
     /// disagree, the output-error estimate in that hull widened by the estimates' distance on
     /// each side (in `ln Cl`).
     pub fn reported(&self) -> (f64, [f64; 2]) {
-        let hull = [self.model_ci95[0].min(self.high_pass_ci95[0]), self.model_ci95[1].max(self.high_pass_ci95[1])];
         if !self.consistent {
-            let d = (self.estimate.ln() - self.high_pass.ln()).abs().exp();
-            return (self.estimate, [hull[0] / d, hull[1] * d]);
+            return (self.estimate, self.disagreement_spanned(self.estimate, self.model_ci95));
         }
+        let hull = [self.model_ci95[0].min(self.high_pass_ci95[0]), self.model_ci95[1].max(self.high_pass_ci95[1])];
         let (estimate, own) = if self.high_pass_reported { (self.high_pass, self.high_pass_ci95) } else { (self.estimate, self.model_ci95) };
         (estimate, if self.spans_both() || self.unconfirmed() { hull } else { own })
+    }
+
+    /// The CI95 `ci95` of a Cl `estimate` of the tested circuit (the fit tested, or the same
+    /// circuit under the other bias law) where the two fits disagree: the hull with the
+    /// high-pass fit's interval, widened by the distance of the estimates on each side (in
+    /// `ln Cl`). Unchanged where they agree. The model error the test found is the circuit's,
+    /// whichever law's shape is reported: a third-generator buck with 0.26 µF beside 100 µF,
+    /// its dead time's edges fitted as ideal, had the high-pass fit at 0.53 µF and the
+    /// preferred law's 0.94 µF reported in an interval of ±4 %.
+    pub fn disagreement_spanned(&self, estimate: f64, ci95: [f64; 2]) -> [f64; 2] {
+        if self.consistent {
+            return ci95;
+        }
+        let hull = [ci95[0].min(self.high_pass_ci95[0]), ci95[1].max(self.high_pass_ci95[1])];
+        let d = (estimate.ln() - self.high_pass.ln()).abs().exp();
+        [hull[0] / d, hull[1] * d]
     }
 
     /// The two agree and the one not reported pins Cl down too, so the interval spans both.
@@ -1578,6 +1593,20 @@ mod tests {
         let (cl, ci) = edge.reported();
         assert_eq!(cl, 3.4e-6);
         assert!(!estimator::validate::identified(ci), "{ci:?}");
+    }
+
+    /// The same circuit's Cl under the other bias law keeps the failed test's widening: the
+    /// third-generator buck's preferred law at 0.943 µF [0.928, 0.960] beside a high-pass refit
+    /// at 0.534 µF [0.418, 0.682] spans 0.236–1.70 µF (its true 0.26 µF inside); where the two
+    /// fits agree, the interval is the law's own.
+    #[test]
+    fn another_law_of_a_circuit_the_test_failed_keeps_the_widening() {
+        let failed = ClCheck::new(0.9446e-6, [0.928e-6, 0.961e-6], 0.534e-6, [0.418e-6, 0.682e-6], 20.9, 6.63);
+        let [lo, hi] = failed.disagreement_spanned(0.943e-6, [0.928e-6, 0.960e-6]);
+        assert!((lo - 0.2367e-6).abs() < 1e-9 && (hi - 1.695e-6).abs() < 2e-9, "[{lo}, {hi}]");
+        assert_eq!(failed.disagreement_spanned(0.9446e-6, failed.model_ci95), failed.reported().1);
+        let agreed = ClCheck::new(1.0e-6, [0.98e-6, 1.02e-6], 1.01e-6, [0.9e-6, 1.1e-6], 0.3, 6.63);
+        assert_eq!(agreed.disagreement_spanned(1.005e-6, [0.99e-6, 1.03e-6]), [0.99e-6, 1.03e-6]);
     }
 
     /// A 1500-period PRBS record of the switched converter `p` at 2 A, read with 2 mV and 10 mA of

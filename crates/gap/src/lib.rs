@@ -501,6 +501,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         (last.cl.check, last.cl.check_skipped) = tested;
         if let Some(spread) = spread {
             (last.cl.estimate, last.cl.ci95) = spread.reported(last.cl.estimate, last.cl.ci95);
+            // The other law's own interval knows nothing of the test the final law's failed.
+            if let Some(check) = last.cl.check.as_ref().filter(|_| spread.prefers_other()) {
+                last.cl.ci95 = check.disagreement_spanned(last.cl.estimate, last.cl.ci95);
+            }
             last.cl.moved_from(baseline.cl);
             last.cl.bias_law = Some(spread);
         }
