@@ -75,8 +75,13 @@ impl MeasuredInput {
         if self.column == "io" { "A" } else { "V" }
     }
 
+    /// One sentence for people, its noise written as `noise` (a number with its unit).
+    pub fn sentence(&self, noise: &str) -> String {
+        format!("{} measured, with {noise} RMS of white noise: {}", self.column, self.what_was_done())
+    }
+
     /// What was done with it, and why.
-    pub fn what_was_done(&self) -> String {
+    fn what_was_done(&self) -> String {
         if self.replaced {
             format!(
                 "replaced by its levels (in {} segment(s) between its own steps, the mean or, where it moves with the duty, a line in it): vout shows no response to the noise, the instrument's, which a simulation driven by it would carry into vout",
@@ -90,7 +95,7 @@ impl MeasuredInput {
 
 impl std::fmt::Display for MeasuredInput {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} measured, with {:.3e} {} RMS of white noise: {}", self.column, self.noise, self.unit(), self.what_was_done())
+        f.write_str(&self.sentence(&format!("{:.3e} {}", self.noise, self.unit())))
     }
 }
 

@@ -1026,9 +1026,9 @@ fn measured_inputs_drive_the_models_by_their_levels() {
 }
 
 /// A load whose current itself carried 60 mA of white noise (a converter saw it: its vout was
-/// simulated with the noisy io): the model driven by the recorded io predicts vout better than
-/// by its level, so it is kept as recorded (`replaced` false), and the diagnosis is the clean
-/// data's.
+/// simulated with the noisy io): vout's residual under the model fitted on io's level follows
+/// that model's response to the noise, so io is kept as recorded (`replaced` false), and the
+/// diagnosis is the clean data's.
 #[test]
 fn an_input_the_converter_saw_is_kept_as_recorded() {
     use rand::SeedableRng;

@@ -191,7 +191,7 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
         ctx.fmu.map_or(String::new(), |(path, nrmse, _)| format!(" The FMU as given (<code>{}</code>): held-out NRMSE {}.", esc(path), si(nrmse, "", 3))),
     ));
     for input in &dx.measured_inputs {
-        page.html(&format!("<p>Input: {} measured, with {} RMS of white noise: {}.</p>", input.column, si(input.noise, input.unit(), 3), esc(&input.what_was_done())));
+        page.html(&format!("<p>Input: {}.</p>", esc(&input.sentence(&si(input.noise, input.unit(), 3)))));
     }
     page.figure("signature", signature.render()?);
     page.html("<h2>Effects selected, in order</h2>");
