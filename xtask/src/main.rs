@@ -2,7 +2,11 @@
 //!
 //! - `model-description`: write `modelDescription/modelDescription.xml` from the variable table;
 //! - `fmu`: build the release cdylib and package `fmu/BuckConverter.fmu`.
-use std::io::Write;
+//!
+//! Both write their file only when its bytes change, and then atomically (a sibling temporary
+//! renamed over it): the package is reproducible (fixed timestamps inside the zip), and a test
+//! that loads the FMU while another process re-packages it never sees a half-written zip.
+use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -25,7 +29,7 @@ fn root() -> PathBuf {
 fn write_model_description() -> Result<PathBuf> {
     let path = root().join("modelDescription/modelDescription.xml");
     std::fs::create_dir_all(path.parent().context("no parent")?)?;
-    std::fs::write(&path, model_description().to_xml()?)?;
+    write_if_changed(&path, model_description().to_xml()?.as_bytes())?;
     Ok(path)
 }
 
@@ -43,12 +47,26 @@ fn package_fmu() -> Result<PathBuf> {
 
     let fmu = root.join("fmu").join(format!("{MODEL_IDENTIFIER}.fmu"));
     std::fs::create_dir_all(fmu.parent().context("no parent")?)?;
-    let mut zip = zip::ZipWriter::new(std::fs::File::create(&fmu)?);
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated).unix_permissions(0o644);
+    let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated).last_modified_time(zip::DateTime::DEFAULT).unix_permissions(0o644);
     zip.start_file("modelDescription.xml", options)?;
     zip.write_all(xml.as_bytes())?;
     zip.start_file(format!("binaries/linux64/{MODEL_IDENTIFIER}.so"), options.unix_permissions(0o755))?;
     zip.write_all(&binary)?;
-    zip.finish()?;
+    write_if_changed(&fmu, &zip.finish()?.into_inner())?;
     Ok(fmu)
+}
+
+/// Writes `bytes` to `path` unless it already holds them (then only its modification time is
+/// renewed, so that freshness checks against the sources hold); a reader sees the old file or the
+/// new one, never a partial write.
+fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<()> {
+    if std::fs::read(path).is_ok_and(|old| old == bytes) {
+        let file = std::fs::File::options().append(true).open(path)?;
+        return file.set_modified(std::time::SystemTime::now()).with_context(|| format!("touching {}", path.display()));
+    }
+    let name = path.file_name().context("no file name")?.to_string_lossy();
+    let partial = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
+    std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
 }
