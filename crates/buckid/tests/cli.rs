@@ -714,6 +714,22 @@ fn a_failed_interval_test_widens_the_other_laws_cl_too() {
     assert!(lo <= f(&cl["check"]["high_pass"]) && f(&cl["check"]["high_pass"]) <= hi, "{cl}");
 }
 
+/// A lab buck with C 11 % and Rc 9 % off their nominal values and 1.3 µF of load beside 330 µF:
+/// the joint refit puts C and Rc at their true values, with Cl not identified beside them; its
+/// pruning then drops C's drift, which Cl takes up, and the model left had Cl at
+/// 38.1 [36.5, 39.9] µF. The model pruned to it is as good a model, whose Cl the interval spans.
+#[test]
+fn a_drift_pruned_into_cl_leaves_cl_not_identified() {
+    let (dx, truth) = diagnose_third("lab-several-7502");
+    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let cl = &last["cl"];
+    let twin = &cl["twin"];
+    assert!(twin["selected"].as_array().is_some_and(|s| s.iter().any(|e| e == "param_drift (C)")), "{cl}");
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::INFINITY);
+    let (lo, hi, cl_true) = (f(&cl["ci95"][0]), f(&cl["ci95"][1]), f(&truth["cl_true"]));
+    assert!(lo <= cl_true && cl_true <= hi, "Cl {} [{lo:e}, {hi:e}] for {cl_true:e}", cl["estimate"]);
+}
+
 /// A capture too short for a model-free noise floor (200 periods: the PRBS steps too often for
 /// the differences between steps): the floor is the best model's residual, so no share of a gap
 /// above it exists, and the selection says so with the NRMSE's shrink instead of "no gap above

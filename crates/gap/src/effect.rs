@@ -111,7 +111,9 @@ pub struct ClMove {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
     /// For a final model at the floor: an equally good model from another first step
-    /// ([`crate::select::twin`]) whose Cl lies outside its interval; the interval spans both.
+    /// ([`crate::select::twin`]) whose Cl lies outside its interval; else the model the joint
+    /// refit pruned to the final one, where the effect pruned was physical and Cl lies outside
+    /// (a drift of C that Cl took up). The interval spans both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub twin: Option<Twin>,
     /// For a final model whose inductor current the measured one matches only through a probe
@@ -155,9 +157,10 @@ pub(crate) fn spanning(ci95: [f64; 2], others: &[[f64; 2]]) -> [f64; 2] {
 impl std::fmt::Display for Twin {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let [lo, hi] = self.ci95.map(|v| v * 1e6);
+        let interval = if estimator::validate::identified(self.ci95) { format!("CI95 {lo:.4} … {hi:.4} µF") } else { "not identified".to_string() };
         write!(
             f,
-            "as good a model ({}, {:.3} mV held out) has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the data does not tell them apart, and the interval spans both",
+            "as good a model ({}, {:.3} mV held out) has Cl {:.4} µF ({interval}): the data does not tell them apart, and the interval spans both",
             self.selected.join(", "),
             self.rms_after * 1e3,
             self.cl * 1e6

@@ -14,14 +14,17 @@
 //! left, it is pruned: an effect whose parameters the data does not pin down first, then drifts
 //! within tolerance (back to nominal together), then one at a time the effect that, given all the
 //! others, closes the least of the gap they leave while it is no finding (immaterial, not
-//! identified, on a bound; the immaterial ones together when jointly so).
+//! identified, on a bound; the immaterial ones together when jointly so). A model pruned away
+//! for effects that were physical there, whose Cl the final interval leaves out, is the final
+//! model's twin: the data does not prefer either, and Cl's interval spans both (a drift of C
+//! that Cl took up once pruned).
 use buck_model::Params;
 use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, effect_label, judge, residual, rms};
+use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, Twin, effect_label, judge, residual, rms};
 use crate::select::{DIODE_RESISTANCE_STARTS, DIODE_TOPOLOGY, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
@@ -137,6 +140,22 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
     Some(fit.into_step())
 }
 
+/// Effects pruned from the model `cand` although physical there: their values identified, a
+/// circuit value's drift within [`MAX_DRIFT`] of `nominal`. That model, which the data does not
+/// reject, is a model of the converter.
+fn physical<'a>(gone: impl IntoIterator<Item = &'a Group>, cand: &Candidate, nominal: &Params) -> bool {
+    gone.into_iter().flat_map(|g| &g.frees).all(|f| {
+        let drift = matches!(f, Free::L | Free::C | Free::Rc).then(|| f.get(&cand.fit.params) / f.get(nominal) - 1.0);
+        cand.fit.estimate(f.name()).is_some_and(|e| estimator::validate::identified([e.ci95.0, e.ci95.1])) && drift.is_none_or(|d| d.abs() <= MAX_DRIFT)
+    })
+}
+
+/// The joint model of `groups`, fitted as `cand`, as a twin of the one pruned from it.
+fn twin_of(groups: &[Group], cand: &Candidate) -> Twin {
+    let (cl, ci95) = cand.fit.estimate("Cl").map_or((f64::NAN, [0.0, f64::INFINITY]), |e| (e.value, [e.ci95.0, e.ci95.1]));
+    Twin { selected: groups.iter().map(Group::label).collect(), rms_after: rms(&residual(cand)), cl, ci95 }
+}
+
 /// The joint refit after the selection `selected` (see the module's documentation), when its
 /// final model still misses materially on switched data: `selected` becomes the pruned joint
 /// model's effects (those selected before, in their order, then those it added, the most
@@ -233,6 +252,9 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
     // Pruned one at a time: each effect refitted without, the least material non-finding
     // dropped (one whose parameters are not identified before any other).
     let mut dropped = Vec::new();
+    // The models pruned for effects that were no finding but physical ([`physical`]): the data
+    // does not prefer the model without them.
+    let mut pruned: Vec<Twin> = Vec::new();
     let findings = loop {
         // With every effect the refit added pruned again, what is left is the selection's own
         // model, or less of it: nothing it could change (the backward step has judged those).
@@ -288,11 +310,17 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
             && let Some((less, against)) = refitted_without(data, nominal, &stack, immaterial.iter().map(|&k| &groups[k]), n_est, holdout)
             && baseline.closed_of_material_gap(rms(&residual(&against)), rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE)
         {
+            if physical(immaterial.iter().map(|&k| &groups[k]), &cand, nominal) {
+                pruned.push(twin_of(&groups, &cand));
+            }
             dropped.extend(immaterial.iter().rev().map(|&k| groups.remove(k)));
             (stack, cand) = (less, against);
             continue;
         }
         let Without { less, against, .. } = trials.into_iter().find(|t| t.k == weakest)?;
+        if physical([&groups[weakest]], &cand, nominal) {
+            pruned.push(twin_of(&groups, &cand));
+        }
         dropped.push(groups.remove(weakest));
         (stack, cand) = (less, against);
     };
@@ -327,6 +355,21 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
         out.push(fit);
     }
     let names = |gs: &[Group]| gs.iter().map(|g| g.label()).collect::<Vec<_>>().join(", ");
+    // A pruned model whose Cl the pruned one's interval leaves out: the pruning's twin (the
+    // farthest from it, in ln Cl).
+    if let Some(last) = out.last_mut() {
+        let [lo, hi] = last.cl.ci95;
+        let far = |t: &Twin| {
+            if t.cl < lo {
+                (lo / t.cl).ln()
+            } else if t.cl > hi {
+                (t.cl / hi).ln()
+            } else {
+                0.0
+            }
+        };
+        last.cl.twin = pruned.into_iter().filter(|t| far(t) > 0.0).max_by(|a, b| far(a).total_cmp(&far(b)));
+    }
     *selected = out;
     Some(format!(
         "the joint refit (every effect such a converter carries, fitted together) closes {share:.1} % of the gap left; pruned of {}",

@@ -446,6 +446,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         Some(twin)
     });
+    // A model the joint refit pruned to this one that puts Cl elsewhere (see `joint::refit`):
+    // its interval is spanned too, where no path's twin is.
+    let pruned_twin = selected.last_mut().and_then(|e| e.cl.twin.take());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.
     let check = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
@@ -523,7 +526,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
-        if let Some(twin) = twin {
+        if let Some(twin) = twin.or(pruned_twin) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
         }
