@@ -67,6 +67,45 @@ fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<()> {
     }
     let name = path.file_name().context("no file name")?.to_string_lossy();
     let partial = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
-    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
-    std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+    let written = std::fs::write(&partial, bytes)
+        .with_context(|| format!("writing {}", partial.display()))
+        .and_then(|()| std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display())));
+    if written.is_err() {
+        // Nothing half-written is left beside the file (it may not exist: the error is the write's).
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
+#[cfg(test)]
+mod tests {
+    use super::write_if_changed;
+
+    fn partials(dir: &std::path::Path) -> Vec<String> {
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n.ends_with(".partial")).collect()
+    }
+
+    #[test]
+    fn a_changed_file_is_replaced_and_an_unchanged_one_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.fmu");
+        write_if_changed(&path, b"one").unwrap();
+        write_if_changed(&path, b"two").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"two");
+        write_if_changed(&path, b"two").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"two");
+        assert!(partials(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn a_failed_rename_leaves_no_partial_file() {
+        // A directory in the file's place: the write succeeds, the rename over it fails.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.fmu");
+        std::fs::create_dir(&path).unwrap();
+        std::fs::write(path.join("inside"), b"x").unwrap();
+        let err = write_if_changed(&path, b"new").unwrap_err();
+        assert!(format!("{err:#}").contains("renaming"), "{err:#}");
+        assert!(partials(dir.path()).is_empty(), "{:?}", partials(dir.path()));
+    }
 }
