@@ -109,6 +109,13 @@ impl Found {
     }
 }
 
+/// A row of `len` fields under a header of `expected`, in words, with the likely cause:
+/// `"the row has 4 fields where the header has 5 (a value missing, or the row cut short?)"`.
+pub fn row_length_problem(len: u64, expected: u64) -> String {
+    let why = if len < expected { "a value missing, or the row cut short" } else { "a delimiter inside a value, e.g. a decimal comma" };
+    format!("the row has {len} fields where the header has {expected} ({why}?)")
+}
+
 /// The field delimiter of a header row: a comma, or a semicolon or tab where the row has no
 /// comma (a spreadsheet's export where the decimal separator is a comma; tab-separated text).
 ///

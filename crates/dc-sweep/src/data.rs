@@ -87,7 +87,13 @@ impl Sweep {
         let index = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         for (r, record) in reader.records().enumerate() {
-            let record = record.map_err(|e| data_err(format!("line {}: {e}", header_line + 1 + r)))?;
+            let record = record.map_err(|e| {
+                let problem = match e.kind() {
+                    csv::ErrorKind::UnequalLengths { expected_len, len, .. } => csv_header::row_length_problem(*len, *expected_len),
+                    _ => e.to_string(),
+                };
+                data_err(format!("line {}: {problem}", header_line + 1 + r))
+            })?;
             let line = record.position().map_or(header_line + 1 + r, |p| header_line + p.line() as usize - 1);
             for (c, found) in index.iter().enumerate() {
                 let Some(found) = *found else { continue };
@@ -162,7 +168,7 @@ mod tests {
             ("duty,vin,vout\n0.5,12,5\n", "no load"),
             ("duty,vin,rload,vout\n0.5,12,0,5\n", "not a positive resistance"),
             ("# U = twelve\nduty,io,vout\n0.5,1,5\n", "`U = twelve`"),
-            ("duty,vin,io,vout\n0.5,12,1\n", "line 2"),
+            ("duty,vin,io,vout\n0.5,12,1\n", "line 2: the row has 3 fields where the header has 4"),
         ];
         for (text, needle) in cases {
             let err = Sweep::parse_csv(text).unwrap_err().to_string();

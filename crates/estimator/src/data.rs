@@ -252,7 +252,7 @@ impl DataSet {
         for (r, record) in reader.records().enumerate() {
             let record = record.map_err(|e| {
                 let line = line_of(e.position(), header_line + 1 + r);
-                data_err(format!("line {line}: {e}"))
+                data_err(format!("line {line}: {}", record_problem(&e)))
             })?;
             let line = line_of(record.position(), header_line + 1 + r);
             let value_at = |found: Found, name: &str| csv_header::value(record.get(found.index).unwrap_or(""), name, found, delimiter).map_err(|e| data_err(format!("line {line}: {e}")));
@@ -353,6 +353,15 @@ fn decode(bytes: &[u8]) -> Result<&str, String> {
     })
 }
 
+/// What is wrong with a record, in the file's terms (the csv crate's own message counts records
+/// and lines from the header row, beside the file's line the caller names).
+fn record_problem(e: &csv::Error) -> String {
+    match e.kind() {
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => csv_header::row_length_problem(*len, *expected_len),
+        _ => e.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -398,7 +407,8 @@ mod tests {
             ("# fs = 500000\ntime,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1\n2e-6,1,0.5,12,1\n", "a rate of 1000.0 kHz"),
             ("time,vout,duty,vin,io\n0,1,40,12,1\n1e-6,1,60,12,1\n", "row 1: 40 is outside [0, 1], the fraction of the switching period the high side is on (in percent?"),
             ("time,vout [ms]\n0,1\n", "`ms` is not a unit of `vout`"),
-            ("time,vout,duty,vin,io\n0,1,0.5,12\n", "line 2"),
+            ("time,vout,duty,vin,io\n0,1,0.5,12\n", "line 2: the row has 4 fields where the header has 5"),
+            ("# fs = 1e6\ntime,vout,duty,vin,io\n0,1,0.5,12,1\n1e-6,1,0.5,12,1,7\n", "line 4: the row has 6 fields where the header has 5"),
         ];
         for (text, needle) in cases {
             let err = DataSet::parse_csv(text).unwrap_err().to_string();
