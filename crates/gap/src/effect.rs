@@ -201,7 +201,7 @@ impl ClMove {
             None => {}
         }
         if let Some(fidelity) = held_to {
-            test += &format!("; held to ±{:.1} %, the circuit model's fidelity", 100.0 * fidelity);
+            test += &format!("; {}", crate::tested::held_to(fidelity));
         }
         test
     }

@@ -39,7 +39,7 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
-pub use tested::{CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
+pub use tested::{CIRCUIT_FIDELITY, CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
 
 /// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
 /// be taken instead (the joint model has fewer effects, each judged given all the others).
@@ -203,6 +203,11 @@ pub struct Diagnosis {
     /// The final Cl's CI95 was widened to the circuit model's fidelity ([`Diagnosis::cl_fidelity`]).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub cl_at_fidelity: bool,
+    /// The relative half-width the final Cl's CI95 is held to: [`CL_FIDELITY_WITH_EFFECTS`]
+    /// where the final model carries effects, [`CL_FIDELITY`] for the nominal alone, or the
+    /// circuit model's fidelity of L and C through Cl's leverage on them where that is wider
+    /// ([`CIRCUIT_FIDELITY`]).
+    pub cl_fidelity: f64,
     /// The nominal model used.
     pub nominal: Nominal,
     /// The inputs (`vin`, `io`) recorded by a measurement, and whether they were replaced by
@@ -226,13 +231,7 @@ impl Diagnosis {
                 &nominal
             }
         };
-        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then(|| self.cl_fidelity())))
-    }
-
-    /// The relative half-width the final Cl's CI95 is held to: [`CL_FIDELITY_WITH_EFFECTS`]
-    /// where the final model carries effects, [`CL_FIDELITY`] for the nominal alone.
-    pub fn cl_fidelity(&self) -> f64 {
-        if self.selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }
+        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some(self.cl_fidelity)))
     }
 
     /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
@@ -493,6 +492,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
+    let cl_fidelity = tested::fidelity(if selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }, cl_leverage.as_ref());
     let (nominal_cl, cl_at_fidelity) = if let Some(last) = selected.last_mut() {
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
@@ -535,10 +535,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // (Switched data, as the model sees it: the duty delayed where it is late.)
         last.cl.held_to_current(final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est)));
         let at_fidelity;
-        (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, CL_FIDELITY_WITH_EFFECTS);
+        (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, cl_fidelity);
         (None, at_fidelity)
     } else {
-        let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual);
+        let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual, cl_fidelity);
         let judged = if switched { judged.against_current(data, nominal, n_est) } else { judged };
         let at_fidelity = judged.at_fidelity;
         (Some(judged), at_fidelity)
@@ -574,6 +574,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         dcm_share,
         cl_leverage,
         cl_at_fidelity,
+        cl_fidelity,
         nominal: opts.nominal,
         measured_inputs,
         traces,

@@ -156,7 +156,8 @@ fn cl_interval_of_the_final_model_is_tested_and_holds() {
     let test = fit.cl.check.as_ref().unwrap();
     assert!(test.consistent, "right model flagged: {test:?}");
     let hull = [test.model_ci95[0].min(test.high_pass_ci95[0]), test.model_ci95[1].max(test.high_pass_ci95[1])];
-    let fidelity = gap::CL_FIDELITY_WITH_EFFECTS;
+    let fidelity = dx.cl_fidelity;
+    assert_eq!(fidelity, gap::CL_FIDELITY_WITH_EFFECTS, "a Cl that leans little on L and C");
     assert_eq!(fit.cl.ci95, [hull[0].min(fit.cl.estimate / (1.0 + fidelity)), hull[1].max(fit.cl.estimate * (1.0 + fidelity))]);
     let [lo, hi] = fit.cl.ci95;
     assert!(lo <= CL && CL <= hi && hi / lo < 1.04, "right model's interval {hull:?} for {CL:e}");
