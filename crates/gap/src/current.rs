@@ -67,7 +67,7 @@ impl CurrentMisfit {
     /// The measured current follows the model's swing well above its noise floor: only then
     /// does the probe gain tell how the reading slipped. (A diode buck deep in DCM starts its
     /// periods at zero current: there the gain is noise, ×0.105 on a third-generator board.)
-    fn follows(&self) -> bool {
+    pub(crate) fn follows(&self) -> bool {
         self.explained > MISFIT_FLOORS * self.floor
     }
 
@@ -114,6 +114,51 @@ impl CurrentMisfit {
             100.0 * PROBE_GAIN_TOLERANCE,
             1e3 * self.beyond_tolerance,
             self.beyond_tolerance / self.floor
+        )
+    }
+}
+
+/// Cl with the current probe taken as exact, for a final model that fits L. Its impedance
+/// `√(L/C)` then rests on il's swing, whose probe gain the fits set aside: the gain the measured
+/// current needs, within a probe's tolerance, is the probe's or the impedance's, and the data
+/// cannot tell which. Taken as the impedance's (the resonance `L·(C + Cl)` kept, as `vout`
+/// pins it), the output's capacitance is that gain times the model's. A lab buck of seed 77
+/// fitted L −9.8 % (its L was nominal) with C + Cl 454 µF for 409 and Cl 56.7 [31.9, 72.7] µF
+/// for 6.97: its current needs ×0.888, which puts Cl near 6.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ProbeExact {
+    /// The probe gain the measured current needs ([`CurrentMisfit::probe_gain`]).
+    pub probe_gain: f64,
+    /// Cl with the probe exact [F]: the output's capacitance scaled by the gain, C kept.
+    pub cl: f64,
+}
+
+impl ProbeExact {
+    /// Cl of the final model `p` (reported as `reported`) with the probe exact, where `misfit`
+    /// follows the model's swing, tolerably (neither contradicting nor slipped).
+    pub(crate) fn of(misfit: &CurrentMisfit, p: &Params, reported: f64) -> Option<Self> {
+        if !misfit.follows() || misfit.slipped() || misfit.contradicts() || !p.cl.is_finite() || p.cl <= 0.0 {
+            return None;
+        }
+        let g = misfit.probe_gain;
+        let cl = (g * (p.c + p.cl) - p.c).max(0.0) / p.cl * reported;
+        Some(Self { probe_gain: g, cl })
+    }
+
+    /// `ci95` widened to hold this Cl (to 0 where the gain leaves none).
+    pub(crate) fn spanned(&self, [lo, hi]: [f64; 2]) -> [f64; 2] {
+        [lo.min(self.cl), hi.max(self.cl)]
+    }
+}
+
+impl std::fmt::Display for ProbeExact {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the model fits L, so its impedance √(L/C) rests on il's swing, which needs a probe gain of ×{:.3}: with the probe exact, the output's capacitance is ×{:.3} and Cl {:.4} µF, and the interval spans both",
+            self.probe_gain,
+            self.probe_gain,
+            self.cl * 1e6
         )
     }
 }
@@ -184,6 +229,36 @@ mod tests {
         assert!(milliamps.slip().contains("another scale"), "{}", milliamps.slip());
         let misfit = CurrentMisfit::of(&data, &wrong, n_est).unwrap();
         assert!(misfit.contradicts() && !misfit.rescaled(), "{misfit:?}");
+    }
+
+    /// A model whose impedance is 8 % low, the resonance kept (L ×0.92 and C + Cl ÷0.92: Cl
+    /// 19.6 µF for 10), needs a probe gain near ×0.92, within a probe's tolerance: taken as the
+    /// impedance's, it gives back the converter's Cl. A model with the right impedance and a
+    /// probe 5 % high is put 5 % of C + Cl off the other way: the data cannot tell which.
+    #[test]
+    fn with_the_probe_exact_a_model_with_the_wrong_impedance_gives_back_cl() {
+        let truth = Params { cl: 10e-6, ..Params::default() };
+        let exp = Experiment { samples: 1500, io: 2.0, noise_vout: 2e-3, noise_il: 10e-3, ..Experiment::default() };
+        let mut data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let ratio: f64 = 0.92;
+        let wrong = Params { l: ratio * truth.l, cl: (truth.c + truth.cl) / ratio - truth.c, ..truth };
+        let misfit = CurrentMisfit::of(&data, &wrong, 1000).unwrap();
+        assert!((misfit.probe_gain - ratio).abs() < 0.01 && !misfit.contradicts(), "{misfit:?}");
+        let exact = ProbeExact::of(&misfit, &wrong, wrong.cl).expect("a tolerable gain");
+        assert!((exact.cl / truth.cl - 1.0).abs() < 0.05, "Cl {:e} with the probe exact, for {:e}", exact.cl, truth.cl);
+        assert_eq!(exact.spanned([19e-6, 20e-6]), [exact.cl, 20e-6]);
+        for il in data.il.as_mut().unwrap() {
+            *il *= 1.05;
+        }
+        let high = ProbeExact::of(&CurrentMisfit::of(&data, &truth, 1000).unwrap(), &truth, truth.cl).unwrap();
+        assert!((high.cl - (truth.cl + 0.05 * (truth.c + truth.cl))).abs() < 0.01 * (truth.c + truth.cl), "{high:?}");
+        // A reading that slipped (reversed) or a gain past the tolerance says nothing of it.
+        for il in data.il.as_mut().unwrap() {
+            *il = -*il;
+        }
+        assert_eq!(ProbeExact::of(&CurrentMisfit::of(&data, &truth, 1000).unwrap(), &truth, truth.cl), None);
+        let far = Params { l: 0.61 * truth.l, cl: (truth.c + truth.cl) / 0.61 - truth.c, ..truth };
+        assert_eq!(ProbeExact::of(&CurrentMisfit::of(&data, &far, 1000).unwrap(), &far, far.cl), None);
     }
 
     /// A gain near a decade within a probe's tolerance is a rescaled reading; one between

@@ -121,6 +121,10 @@ pub struct ClMove {
     /// that slipped (reversed, rescaled): how it misses.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub current_misfit: Option<crate::CurrentMisfit>,
+    /// For a final model that fits L, with a measured current: Cl with the probe taken as exact
+    /// ([`crate::ProbeExact`]); the interval spans it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probe_exact: Option<crate::ProbeExact>,
 }
 
 /// A model as good as the final one, from another first step, whose Cl differs: the data does
@@ -200,6 +204,9 @@ impl ClMove {
             Some(misfit) => test += &format!("; {misfit}"),
             None => {}
         }
+        if let Some(probe) = &self.probe_exact {
+            test += &format!("; {probe}");
+        }
         if let Some(fidelity) = held_to {
             test += &format!("; {}", crate::tested::held_to(fidelity));
         }
@@ -216,6 +223,17 @@ impl ClMove {
     /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]); a reading
     /// that slipped (reversed, rescaled) is kept to be said either way.
     pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>) {
+        self.held_to_current_of(misfit, None);
+    }
+
+    /// [`ClMove::held_to_current`] for a final model `p` that fits L (`fits_l`): the interval
+    /// then also spans Cl with the probe exact ([`crate::ProbeExact`]) where that lies outside.
+    pub(crate) fn held_to_current_of(&mut self, misfit: Option<crate::CurrentMisfit>, fits_l: Option<&Params>) {
+        let [lo, hi] = self.ci95;
+        if let Some(probe) = misfit.zip(fits_l).and_then(|(m, p)| crate::ProbeExact::of(&m, p, self.estimate)).filter(|probe| !(lo..=hi).contains(&probe.cl)) {
+            self.ci95 = probe.spanned(self.ci95);
+            self.probe_exact = Some(probe);
+        }
         let Some(misfit) = misfit.filter(|m| m.contradicts() || m.slipped()) else { return };
         if misfit.contradicts() {
             self.ci95 = [0.0, f64::INFINITY];
@@ -243,6 +261,7 @@ impl ClMove {
             operating_point: None,
             twin: None,
             current_misfit: None,
+            probe_exact: None,
         };
         cl.moved_from(cl_before);
         cl

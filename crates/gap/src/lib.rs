@@ -29,7 +29,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 pub use bias_law::BiasLawSpread;
-pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE};
+pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
     ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, RECIPROCAL_BIAS_LAW,
     closed_percent, gap_above, gap_material, model_error_inflation,
@@ -533,7 +533,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // A model whose inductor current the measured one matches only through an implausible
         // probe gain has the wrong impedance: its Cl is not the converter's.
         // (Switched data, as the model sees it: the duty delayed where it is late.)
-        last.cl.held_to_current(final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est)));
+        let misfit = final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est));
+        let fits_l = final_stack.as_ref().filter(|s| s.free.contains(&Free::L)).and(final_circuit);
+        last.cl.held_to_current_of(misfit, fits_l.as_ref());
         let at_fidelity;
         (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, cl_fidelity);
         (None, at_fidelity)
