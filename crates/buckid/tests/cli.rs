@@ -51,6 +51,16 @@ fn diagnose_third(name: &str) -> (serde_json::Value, serde_json::Value) {
     (json(&out), truth)
 }
 
+/// `buckid identify --data` on a third-generator fixture: its JSON, the truth, and what it printed.
+fn identify_third(name: &str) -> (serde_json::Value, serde_json::Value, String) {
+    let (data, truth) = third_fixture(name);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("id.json");
+    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (json(&out), truth, String::from_utf8_lossy(&o.stdout).to_string())
+}
+
 /// The project's packaged FMU, (re)built when missing or stale.
 fn buck_fmu() -> &'static Path {
     fmu_fixture::buck_fmu().unwrap_or_else(|e| panic!("{e}"))
@@ -598,15 +608,9 @@ fn a_small_cl_beside_a_large_c_is_held_to_l_and_cs_fidelity() {
     // The interval is no wider than that fidelity asks.
     assert!(hi / lo < (1.0 + fidelity).powi(2) * 1.001, "[{lo:e}, {hi:e}] wider than ±{fidelity}");
 
-    let (data, _) = third_fixture("pol-clean-7902");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("id.json");
-    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let id = json(&out);
+    let (id, _, stdout) = identify_third("pol-clean-7902");
     let [lo, hi] = [0, 1].map(|i| id["cl"]["ci95"][i].as_f64().unwrap());
     assert!(lo <= cl_true && cl_true <= hi, "identify: Cl {cl_true:e} outside [{lo:e}, {hi:e}]");
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("through Cl's leverage on them"), "{stdout}");
 }
 
@@ -677,12 +681,7 @@ fn a_quiet_clean_capture_is_clean() {
 /// A fit that misses worse than the data's mean is refitted from every point of the grid.
 #[test]
 fn identify_refits_from_the_whole_grid_a_fit_worse_than_the_mean() {
-    let (data, truth) = third_fixture("pol-clean-1901");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("id.json");
-    let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let id = json(&out);
+    let (id, truth, _) = identify_third("pol-clean-1901");
     let (cl, cl_true) = (id["cl"]["estimate"].as_f64().unwrap(), truth["cl_true"].as_f64().unwrap());
     assert!((cl / cl_true - 1.0).abs() < 1e-3, "Cl {cl:e} for {cl_true:e}");
     assert!(id["fit_percent"]["simulation"].as_f64().unwrap() > 99.0, "{}", id["fit_percent"]);
@@ -696,13 +695,9 @@ fn identify_refits_from_the_whole_grid_a_fit_worse_than_the_mean() {
 /// misses by tens of noise floors and Cl is "not identified".
 #[test]
 fn identify_tests_the_interval_on_a_circuits_data() {
-    let dir = tempfile::tempdir().unwrap();
     let run = |name: &str| {
-        let (data, truth) = third_fixture(name);
-        let out = dir.path().join(format!("{name}.json"));
-        let o = buckid(&["identify", "--data", data.to_str().unwrap(), "--json", out.to_str().unwrap()]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        (json(&out), truth["cl_true"].as_f64().unwrap(), String::from_utf8_lossy(&o.stdout).to_string())
+        let (id, truth, stdout) = identify_third(name);
+        (id, truth["cl_true"].as_f64().unwrap(), stdout)
     };
     let (id, cl_true, _) = run("pol-clean-1901");
     let [lo, hi] = [0, 1].map(|i| id["cl"]["ci95"][i].as_f64().unwrap());
