@@ -137,7 +137,8 @@ impl ProbeExact {
     /// Cl of the final model `p` (reported as `reported`) with the probe exact, where `misfit`
     /// follows the model's swing, tolerably (neither contradicting nor slipped).
     pub(crate) fn of(misfit: &CurrentMisfit, p: &Params, reported: f64) -> Option<Self> {
-        if !misfit.follows() || misfit.slipped() || misfit.contradicts() || !p.cl.is_finite() || p.cl <= 0.0 {
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !misfit.follows() || misfit.slipped() || misfit.contradicts() || !positive(p.cl) || !positive(reported) {
             return None;
         }
         let g = misfit.probe_gain;
@@ -257,6 +258,8 @@ mod tests {
             *il = -*il;
         }
         assert_eq!(ProbeExact::of(&CurrentMisfit::of(&data, &truth, 1000).unwrap(), &truth, truth.cl), None);
+        // Nor a Cl that is not there to scale.
+        assert_eq!(ProbeExact::of(&misfit, &wrong, f64::NAN), None);
         let far = Params { l: 0.61 * truth.l, cl: (truth.c + truth.cl) / 0.61 - truth.c, ..truth };
         assert_eq!(ProbeExact::of(&CurrentMisfit::of(&data, &far, 1000).unwrap(), &far, far.cl), None);
     }
