@@ -109,11 +109,14 @@ impl Found {
     }
 }
 
-/// A row of `len` fields under a header of `expected`, in words, with the likely cause:
-/// `"the row has 4 fields where the header has 5 (a value missing, or the row cut short?)"`.
-pub fn row_length_problem(len: u64, expected: u64) -> String {
-    let why = if len < expected { "a value missing, or the row cut short" } else { "a delimiter inside a value, e.g. a decimal comma" };
-    format!("the row has {len} fields where the header has {expected} ({why}?)")
+/// What is wrong with a record the csv crate refused, in the file's terms (its own message
+/// counts records and lines from the header row, beside the file's line the caller names). A
+/// row of the wrong length says so with the likely cause: `"the row has 4 fields where the
+/// header has 5 (a value missing, or the row cut short?)"`.
+pub fn record_problem(e: &csv::Error) -> String {
+    let csv::ErrorKind::UnequalLengths { expected_len, len, .. } = *e.kind() else { return e.to_string() };
+    let why = if len < expected_len { "a value missing, or the row cut short" } else { "a delimiter inside a value, e.g. a decimal comma" };
+    format!("the row has {len} fields where the header has {expected_len} ({why}?)")
 }
 
 /// The field delimiter of a header row: a comma, or a semicolon or tab where the row has no

@@ -87,13 +87,7 @@ impl Sweep {
         let index = csv_header::find(&headers.iter().collect::<Vec<_>>(), &COLUMNS).map_err(|e| data_err(format!("line {header_line}: {e}")))?;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
         for (r, record) in reader.records().enumerate() {
-            let record = record.map_err(|e| {
-                let problem = match e.kind() {
-                    csv::ErrorKind::UnequalLengths { expected_len, len, .. } => csv_header::row_length_problem(*len, *expected_len),
-                    _ => e.to_string(),
-                };
-                data_err(format!("line {}: {problem}", header_line + 1 + r))
-            })?;
+            let record = record.map_err(|e| data_err(format!("line {}: {}", header_line + 1 + r, csv_header::record_problem(&e))))?;
             let line = record.position().map_or(header_line + 1 + r, |p| header_line + p.line() as usize - 1);
             for (c, found) in index.iter().enumerate() {
                 let Some(found) = *found else { continue };

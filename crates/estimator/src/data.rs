@@ -252,7 +252,7 @@ impl DataSet {
         for (r, record) in reader.records().enumerate() {
             let record = record.map_err(|e| {
                 let line = line_of(e.position(), header_line + 1 + r);
-                data_err(format!("line {line}: {}", record_problem(&e)))
+                data_err(format!("line {line}: {}", csv_header::record_problem(&e)))
             })?;
             let line = line_of(record.position(), header_line + 1 + r);
             let value_at = |found: Found, name: &str| csv_header::value(record.get(found.index).unwrap_or(""), name, found, delimiter).map_err(|e| data_err(format!("line {line}: {e}")));
@@ -351,15 +351,6 @@ fn decode(bytes: &[u8]) -> Result<&str, String> {
         let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
         format!("line {line}: byte {at} (0x{:02x}) is not UTF-8; save the file as UTF-8 (Latin-1 `µ` or `°` are a common cause)", bytes[at])
     })
-}
-
-/// What is wrong with a record, in the file's terms (the csv crate's own message counts records
-/// and lines from the header row, beside the file's line the caller names).
-fn record_problem(e: &csv::Error) -> String {
-    match e.kind() {
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => csv_header::row_length_problem(*len, *expected_len),
-        _ => e.to_string(),
-    }
 }
 
 #[cfg(test)]
