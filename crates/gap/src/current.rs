@@ -147,8 +147,8 @@ impl ProbeExact {
     }
 
     /// `ci95` widened to hold this Cl (to 0 where the gain leaves none).
-    pub(crate) fn spanned(&self, [lo, hi]: [f64; 2]) -> [f64; 2] {
-        [lo.min(self.cl), hi.max(self.cl)]
+    pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
+        crate::effect::spanning(ci95, &[[self.cl; 2]])
     }
 }
 

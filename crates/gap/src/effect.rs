@@ -221,14 +221,10 @@ impl ClMove {
 
     /// Cl not identified where `misfit` (its model's inductor current against the measured one)
     /// contradicts the model's impedance ([`crate::CurrentMisfit::contradicts`]); a reading
-    /// that slipped (reversed, rescaled) is kept to be said either way.
-    pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>) {
-        self.held_to_current_of(misfit, None);
-    }
-
-    /// [`ClMove::held_to_current`] for a final model `p` that fits L (`fits_l`): the interval
-    /// then also spans Cl with the probe exact ([`crate::ProbeExact`]) where that lies outside.
-    pub(crate) fn held_to_current_of(&mut self, misfit: Option<crate::CurrentMisfit>, fits_l: Option<&Params>) {
+    /// that slipped (reversed, rescaled) is kept to be said either way. Where the model `fits_l`
+    /// (its circuit values, L fitted), the interval also spans Cl with the probe exact
+    /// ([`crate::ProbeExact`]) where that lies outside.
+    pub(crate) fn held_to_current(&mut self, misfit: Option<crate::CurrentMisfit>, fits_l: Option<&Params>) {
         let [lo, hi] = self.ci95;
         if let Some(probe) = misfit.zip(fits_l).and_then(|(m, p)| crate::ProbeExact::of(&m, p, self.estimate)).filter(|probe| !(lo..=hi).contains(&probe.cl)) {
             self.ci95 = probe.spanned(self.ci95);
@@ -1569,7 +1565,7 @@ mod tests {
     #[test]
     fn a_reversed_current_is_said_not_voided() {
         let mut cl = ClMove::at(10e-6, [9.9e-6, 10.1e-6], 10e-6);
-        cl.held_to_current(Some(crate::CurrentMisfit { probe_gain: -1.01, beyond_tolerance: 0.0, floor: 0.02, explained: 0.5 }));
+        cl.held_to_current(Some(crate::CurrentMisfit { probe_gain: -1.01, beyond_tolerance: 0.0, floor: 0.02, explained: 0.5 }), None);
         assert_eq!(cl.ci95, [9.9e-6, 10.1e-6]);
         assert!(!cl.voided_by_current());
         let sentence = cl.sentence(None);

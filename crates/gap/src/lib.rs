@@ -535,7 +535,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // (Switched data, as the model sees it: the duty delayed where it is late.)
         let misfit = final_stack.as_ref().filter(|_| switched).zip(final_circuit).and_then(|(s, p)| CurrentMisfit::of(&s.data(data), &p, n_est));
         let fits_l = final_stack.as_ref().filter(|s| s.free.contains(&Free::L)).and(final_circuit);
-        last.cl.held_to_current_of(misfit, fits_l.as_ref());
+        last.cl.held_to_current(misfit, fits_l.as_ref());
         let at_fidelity;
         (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, cl_fidelity);
         (None, at_fidelity)

@@ -109,7 +109,7 @@ impl TestedCl {
     /// Not identified where the nominal's inductor current at this Cl contradicts the measured
     /// one ([`CurrentMisfit`]: the nominal's impedance is not the converter's).
     pub(crate) fn against_current(mut self, data: &DataSet, nominal: &Params, n_est: usize) -> Self {
-        self.cl.held_to_current(CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est));
+        self.cl.held_to_current(CurrentMisfit::of(data, &Params { cl: self.cl.estimate, ..*nominal }, n_est), None);
         self.at_fidelity &= !self.cl.voided_by_current();
         self
     }
