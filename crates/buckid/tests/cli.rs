@@ -638,6 +638,24 @@ fn a_fitted_l_spans_cl_with_the_current_probe_exact() {
     assert!(estimate < cl_true && cl_true < exact && exact <= hi, "Cl {estimate:e}, with the probe exact {exact:e}, interval up to {hi:e}");
 }
 
+/// The thesis buck with an 88 mΩ ESR on its 3.05 µF load, read 47 ns late (third generator,
+/// seed 8302): il shows the late reading, so it is taken first; the ESR alone had closed 99 % of
+/// the gap, yet on top of the late reading the screen's linearization ranked it twelfth of
+/// thirteen, and an ESL and a filter stood in for it, Cl "not identified". Fitted past the
+/// screen, the ESR is named with its value and Cl's interval holds the truth.
+#[test]
+fn an_effect_that_alone_beat_the_late_reading_is_fitted_on_top_of_it() {
+    let (dx, truth) = diagnose_third("thesis-single-8302");
+    let selected = dx["selected"].as_array().unwrap();
+    let names: Vec<&str> = selected.iter().map(|e| e["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["sample_delay", "load_esr"], "{}", dx["selection_ended"]);
+    let (esr, esr_true) = (selected[1]["params"]["load_esr"].as_f64().unwrap(), truth["circuit"]["rcl"].as_f64().unwrap());
+    assert!((esr / esr_true - 1.0).abs() < 0.1, "load ESR {esr} Ω for {esr_true}");
+    let cl_true = truth["cl_true"].as_f64().unwrap();
+    let [lo, hi] = [0, 1].map(|i| selected[1]["cl"]["ci95"][i].as_f64().unwrap());
+    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.2, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+}
+
 /// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed
 /// 4302): its diode candidate closes 99 % of the gap, but with L at its nominal the drop stands
 /// in for the inductor in each period's charge and runs to the 5 V bound, Cl to 1 nF. No effect

@@ -1368,7 +1368,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Cl is voided in DCM only where the model still misses and DCM leaves no CCM periods to
@@ -1413,7 +1413,7 @@ mod tests {
 
     /// A significant, material finding `name` on `baseline` leaving `rms_after` of the model it
     /// extends, which left `against` (held-out RMS).
-    fn finding(name: &'static str, baseline: &Baseline, rms_after: f64, against: f64) -> EffectFit {
+    pub(crate) fn finding(name: &'static str, baseline: &Baseline, rms_after: f64, against: f64) -> EffectFit {
         EffectFit {
             name,
             params: BTreeMap::new(),

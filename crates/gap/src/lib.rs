@@ -332,7 +332,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // sequence that the joint refit does not settle also goes on, one effect at a time (the
     // joint refit frees no ESL or bias law).
     let path = |first: &EffectFit| {
-        let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+        let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, &effects, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
         let (mut selected, mut ended) = forward(std::slice::from_ref(first), select::MAX_EFFECTS);
         let full = selected.len() >= select::MAX_EFFECTS;
         if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
