@@ -7,7 +7,8 @@
 //! [--harness-per-effect K] [--harness-adc-delay LO,HI] [--only I,J,…] [--keep DIR]` (0 turns
 //! a source off; the harness's ADC delay range in seconds, default 20e-9,300e-9; `--only` runs
 //! just the listed dataset numbers of the progress lines, same draws; `--keep` writes each
-//! diagnosed dataset to `DIR/NNN-label.csv`, for `buckid diagnose`)
+//! diagnosed dataset to `DIR/NNN-label.csv`, for `buckid diagnose`, with what it holds in
+//! `DIR/NNN-label.truth.json`)
 //!
 //! The FMU is `fmu/BuckConverter.fmu`, rebuilt by `cargo xtask fmu` when stale (the same model
 //! in process when that fails); ngspice datasets need `ngspice` on PATH and the `.venv` of
@@ -48,6 +49,7 @@ impl Selection {
         if let Some(dir) = &self.keep {
             let path = dir.join(format!("{index:03}-{}-{}.csv", case.source, case.truth.label().replace('+', "-")));
             case.data.write_csv(&path).expect("--keep: cannot write");
+            std::fs::write(path.with_extension("truth.json"), format!("{:#}\n", case.truth_json())).expect("--keep: cannot write");
         }
         let o = diagnose_case(case);
         progress(index, &o);

@@ -49,6 +49,25 @@ pub struct Truth {
     pub settings: Vec<(&'static str, f64)>,
 }
 
+impl Case {
+    /// What it holds, as JSON for people and scripts (`--keep`): its source, the withheld
+    /// effects, Cl as drawn and as the scores compare against it (`cl_true`), the load current,
+    /// the sensor noise and the plant's settings by name.
+    pub fn truth_json(&self) -> serde_json::Value {
+        let t = &self.truth;
+        let settings: serde_json::Map<String, serde_json::Value> = t.settings.iter().map(|(k, v)| ((*k).to_string(), (*v).into())).collect();
+        serde_json::json!({
+            "source": self.source,
+            "effects": t.effects(),
+            "cl": t.cl,
+            "cl_true": self.true_cl,
+            "io": t.io,
+            "noise": t.noise,
+            "settings": settings,
+        })
+    }
+}
+
 impl Truth {
     /// The withheld effects (empty for a clean dataset).
     pub fn effects(&self) -> Vec<&'static str> {

@@ -48,6 +48,11 @@ fn an_independent_harness_dataset_reads_and_diagnoses() {
     // within 0.5 V).
     let mean = case.data.vout.iter().sum::<f64>() / case.data.vout.len() as f64;
     assert!((mean - (6.0 - truth.io * 0.1)).abs() < 0.5, "mean vout {mean}");
+    // What `--keep` writes beside it says what it holds.
+    let kept = case.truth_json();
+    assert_eq!(kept["effects"], serde_json::json!(["load_esr"]), "{kept}");
+    assert_eq!((kept["cl"].as_f64(), kept["io"].as_f64()), (Some(truth.cl), Some(truth.io)), "{kept}");
+    assert!(truth.settings.iter().all(|(k, v)| kept["settings"][k].as_f64() == Some(*v)), "{kept}");
     let o = diagnose_case(&case);
     assert!(!o.verdict.starts_with("error"), "{}", o.verdict);
 }

@@ -144,7 +144,7 @@ fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'stat
             let starts = effect.starts(start, io);
             let free: Vec<Free> = std::iter::once(Free::Cl).chain(effect.extra.iter().map(|&(f, _)| f)).collect();
             let trial = estimator::simulated::fit_from(data, &starts, &free, n_est, Criterion::OutputError).map_err(|e| e.to_string()).and_then(|cand| {
-                let (params, ci95) = effect.report(&cand)?;
+                let (params, ci95) = effect.report(&cand, data)?;
                 Ok(Trial { cand, params, ci95, extra: effect.extra.len(), not_nested: effect.dcm, drift: None })
             });
             (effect.name, trial)

@@ -132,7 +132,7 @@ fn refitted_without<'a>(data: &DataSet, nominal: &Params, stack: &Stack, gone: i
 #[allow(clippy::too_many_arguments)]
 fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Candidate, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
     let x = Extension::within(with, g.name, &g.frees, against.fit.params);
-    let t = x.assess(cand.clone(), nominal).ok()?;
+    let t = x.assess(cand.clone(), data, nominal).ok()?;
     let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
     if g.name == "sample_delay" {
         fit.judge_in_il(&with.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);

@@ -355,11 +355,12 @@ impl Extension {
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
     fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, TrialError> {
         let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
-        self.assess(cand, nominal)
+        self.assess(cand, data, nominal)
     }
 
-    /// The effect's parameters (against the nominal circuit `nominal`) in `cand`, its model's fit.
-    pub(crate) fn assess(&self, cand: Candidate, nominal: &Params) -> Result<Trial, TrialError> {
+    /// The effect's parameters (against the nominal circuit `nominal`) in `cand`, its model's fit
+    /// to `data`.
+    pub(crate) fn assess(&self, cand: Candidate, data: &DataSet, nominal: &Params) -> Result<Trial, TrialError> {
         // An effect added on top must leave the ones before it in place: when one of theirs is
         // no longer pinned down, the newcomer replaces rather than adds.
         let added = self.added();
@@ -410,7 +411,7 @@ impl Extension {
             }
             name => {
                 let effect = simulated_form(name, |f| self.added().contains(&f)).ok_or_else(|| format!("no simulator form of `{name}`"))?;
-                (params, ci95) = effect.report(&cand)?;
+                (params, ci95) = effect.report(&cand, &self.stack.data(data))?;
             }
         }
         Ok(Trial { cand, params, ci95, extra: self.extra, not_nested: self.not_nested, drift })
