@@ -688,6 +688,33 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
     assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.2, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
 }
 
+/// An independent-harness synchronous buck with L 22 % high and unequal switches (19.8 and
+/// 29.4 mΩ), read 166 ns late (blind bench, seed 3030, dataset 24). The first step's best, a load
+/// ESR, led to a path that stopped 2.6 floors above the noise, its model's inductor current
+/// matching the measured one only through a probe gain of ×0.79 (a model whose impedance is not
+/// the converter's), Cl "not identified" for 91.3 µF. Such a path gives way to the next first
+/// step's: from the switches' resistance the drift of L, the low side's ratio and the late
+/// reading follow, at the floor, Cl inside its interval.
+#[test]
+fn a_path_whose_current_contradicts_the_measured_one_gives_way() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "drift-switches-3030-24"));
+    let selected = dx["selected"].as_array().unwrap();
+    let names: Vec<&str> = selected.iter().map(|e| e["name"].as_str().unwrap()).collect();
+    assert_eq!(names.first(), Some(&"switch_resistance"), "{}", dx["selection_ended"]);
+    assert!(names.contains(&"param_drift") && names.contains(&"unequal_switches"), "{names:?}");
+    let ended = dx["selection_ended"].as_str().unwrap();
+    assert!(ended.contains("inductor current matching the measured one only through a probe gain"), "{ended}");
+    let drift = selected.iter().find(|e| e["name"] == "param_drift").unwrap();
+    let (l, l_true) = (drift["params"]["L"].as_f64().unwrap(), truth["settings"]["L"].as_f64().unwrap());
+    assert!((l / l_true - 1.0).abs() < 0.01, "L {l} H for {l_true}");
+    let (r, r_true) = (selected[0]["params"]["switch_resistance"].as_f64().unwrap(), truth["settings"]["ron_hs"].as_f64().unwrap());
+    assert!((r / r_true - 1.0).abs() < 0.1, "high side {r} Ω for {r_true}");
+    let cl_true = truth["cl_true"].as_f64().unwrap();
+    let last = selected.last().unwrap();
+    let [lo, hi] = [0, 1].map(|i| last["cl"]["ci95"][i].as_f64().unwrap());
+    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.1, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+}
+
 /// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed
 /// 4302): its diode candidate closes 99 % of the gap, but with L at its nominal the drop stands
 /// in for the inductor in each period's charge and runs to the 5 V bound, Cl to 1 nF. No effect

@@ -389,11 +389,26 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         selection_ended += &note;
     }
-    // A path stuck far above the floor (see `select::STUCK_FLOORS`): the paths from the next
-    // findings of the first step, one at a time while the best so far is still stuck.
+    // A path stuck far above the floor (see `select::STUCK_FLOORS`), or stopped materially above
+    // it with a model whose inductor current contradicts the measured one (its impedance is not
+    // the converter's, see `CurrentMisfit`: a stand-in took the first step): the paths from the
+    // next findings of the first step, one at a time while the best so far is still stuck.
+    let contradicts_il = |s: &[EffectFit]| -> Option<CurrentMisfit> {
+        let last = s.last().filter(|_| switched)?;
+        let stack = select::Stack::of(&s.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok()?;
+        CurrentMisfit::of(&stack.data(data), &stack.params, n_est).filter(CurrentMisfit::contradicts)
+    };
+    let stuck = |s: &[EffectFit], floor: f64| -> Option<(f64, String)> {
+        let rms = s.last()?.rms_after;
+        if rms > select::STUCK_FLOORS * floor {
+            return Some((rms, String::new()));
+        }
+        let misfit = contradicts_il(s).filter(|_| baseline.misses_materially(rms) == Some(true))?;
+        Some((rms, format!(", its model's inductor current matching the measured one only through a probe gain of ×{:.2}", misfit.probe_gain)))
+    };
     if let (Some(_), Some(floor)) = (first, baseline.floor) {
         for other_first in select::alternatives(&effects, &tried) {
-            let Some(rms_left) = selected.last().map(|e| e.rms_after).filter(|r| *r > select::STUCK_FLOORS * floor) else { break };
+            let Some((rms_left, why)) = stuck(&selected, floor) else { break };
             if selected.len() >= select::MAX_EFFECTS {
                 break;
             }
@@ -401,7 +416,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             let closes = closes_of_left(&other, rms_left);
             selection_ended = match closes {
                 Some(c) => {
-                    let before = format!("the path from {from} stopped {:.1} floors above the noise: {selection_ended}", rms_left / floor);
+                    let before = format!("the path from {from} stopped {:.1} floors above the noise{why}: {selection_ended}", rms_left / floor);
                     (selected, from) = (other, other_first.name);
                     format!("{other_ended} (from {}, closing {c:.1} % of the gap left where {before})", other_first.name)
                 }
