@@ -62,6 +62,27 @@ fn diagnose_generated((data, truth): (PathBuf, serde_json::Value)) -> (serde_jso
     (json(&out), truth)
 }
 
+/// The names of the effects the diagnosis `dx` selected, in order.
+fn selected_names(dx: &serde_json::Value) -> Vec<&str> {
+    dx["selected"].as_array().unwrap().iter().map(|e| e["name"].as_str().unwrap()).collect()
+}
+
+/// Asserts that a fitted `value` of `what` lies within a share `rel` of its `truth`.
+fn assert_within(what: &str, value: &serde_json::Value, truth: &serde_json::Value, rel: f64) {
+    let (v, t) = (value.as_f64().unwrap(), truth.as_f64().unwrap());
+    assert!((v / t - 1.0).abs() < rel, "{what} {v} for {t}");
+}
+
+/// The final model's Cl interval in the diagnosis `dx`, asserted to hold the truth's `cl_true`
+/// and to span less than a factor `max_ratio`.
+fn assert_final_cl_holds_truth(dx: &serde_json::Value, truth: &serde_json::Value, max_ratio: f64) -> [f64; 2] {
+    let last = dx["selected"].as_array().unwrap().last().expect("a selected effect");
+    let cl_true = truth["cl_true"].as_f64().unwrap();
+    let [lo, hi] = [0, 1].map(|i| last["cl"]["ci95"][i].as_f64().unwrap());
+    assert!(lo <= cl_true && cl_true <= hi && hi / lo < max_ratio, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+    [lo, hi]
+}
+
 /// `buckid identify --data` on a third-generator fixture: its JSON, the truth, and what it printed.
 fn identify_third(name: &str) -> (serde_json::Value, serde_json::Value, String) {
     let (data, truth) = third_fixture(name);
@@ -640,9 +661,8 @@ fn a_fitted_l_spans_cl_with_the_current_probe_exact() {
     let probe = &last["cl"]["probe_exact"];
     let gain = probe["probe_gain"].as_f64().unwrap();
     assert!((gain - 1.0).abs() > 0.03 && (gain - 1.0).abs() <= gap::PROBE_GAIN_TOLERANCE, "{probe}");
+    let [_, hi] = assert_final_cl_holds_truth(&dx, &truth, 10.0);
     let cl_true = truth["cl_true"].as_f64().unwrap();
-    let [lo, hi] = [0, 1].map(|i| last["cl"]["ci95"][i].as_f64().unwrap());
-    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 10.0, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
     // The fit's own Cl stays below the truth; the probe-exact one lies above it, and the
     // interval reaches it.
     let (estimate, exact) = (last["cl"]["estimate"].as_f64().unwrap(), probe["cl"].as_f64().unwrap());
@@ -658,13 +678,10 @@ fn a_fitted_l_spans_cl_with_the_current_probe_exact() {
 fn an_effect_that_alone_beat_the_late_reading_is_fitted_on_top_of_it() {
     let (dx, truth) = diagnose_third("thesis-single-8302");
     let selected = dx["selected"].as_array().unwrap();
-    let names: Vec<&str> = selected.iter().map(|e| e["name"].as_str().unwrap()).collect();
+    let names = selected_names(&dx);
     assert_eq!(names, ["sample_delay", "load_esr"], "{}", dx["selection_ended"]);
-    let (esr, esr_true) = (selected[1]["params"]["load_esr"].as_f64().unwrap(), truth["circuit"]["rcl"].as_f64().unwrap());
-    assert!((esr / esr_true - 1.0).abs() < 0.1, "load ESR {esr} Ω for {esr_true}");
-    let cl_true = truth["cl_true"].as_f64().unwrap();
-    let [lo, hi] = [0, 1].map(|i| selected[1]["cl"]["ci95"][i].as_f64().unwrap());
-    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.2, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+    assert_within("load ESR [Ω]", &selected[1]["params"]["load_esr"], &truth["circuit"]["rcl"], 0.1);
+    assert_final_cl_holds_truth(&dx, &truth, 1.2);
 }
 
 /// An independent-harness buck with L 12 % low at 4.2 A of load (blind bench, seed 3030, dataset
@@ -677,15 +694,12 @@ fn an_effect_that_alone_beat_the_late_reading_is_fitted_on_top_of_it() {
 fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current() {
     let (dx, truth) = diagnose_generated(generated_fixture("harness", "param-drift-3030-31"));
     let selected = dx["selected"].as_array().unwrap();
-    let names: Vec<&str> = selected.iter().map(|e| e["name"].as_str().unwrap()).collect();
+    let names = selected_names(&dx);
     assert_eq!(names, ["param_drift", "sample_delay"], "{}", dx["selection_ended"]);
-    let (l, l_true) = (selected[0]["params"]["L"].as_f64().unwrap(), truth["settings"]["L"].as_f64().unwrap());
-    assert!((l / l_true - 1.0).abs() < 0.01, "L {l} H for {l_true}");
+    assert_within("L [H]", &selected[0]["params"]["L"], &truth["settings"]["L"], 0.01);
     let saturation = dx["effects"].as_array().unwrap().iter().find(|e| e["name"] == "inductor_saturation").expect("the saturation candidate");
     assert_eq!(saturation["identifiable"], false, "{saturation}");
-    let cl_true = truth["cl_true"].as_f64().unwrap();
-    let [lo, hi] = [0, 1].map(|i| selected[1]["cl"]["ci95"][i].as_f64().unwrap());
-    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.2, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+    assert_final_cl_holds_truth(&dx, &truth, 1.2);
 }
 
 /// An independent-harness synchronous buck with L 22 % high and unequal switches (19.8 and
@@ -699,20 +713,15 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
 fn a_path_whose_current_contradicts_the_measured_one_gives_way() {
     let (dx, truth) = diagnose_generated(generated_fixture("harness", "drift-switches-3030-24"));
     let selected = dx["selected"].as_array().unwrap();
-    let names: Vec<&str> = selected.iter().map(|e| e["name"].as_str().unwrap()).collect();
+    let names = selected_names(&dx);
     assert_eq!(names.first(), Some(&"switch_resistance"), "{}", dx["selection_ended"]);
     assert!(names.contains(&"param_drift") && names.contains(&"unequal_switches"), "{names:?}");
     let ended = dx["selection_ended"].as_str().unwrap();
     assert!(ended.contains("inductor current matching the measured one only through a probe gain"), "{ended}");
     let drift = selected.iter().find(|e| e["name"] == "param_drift").unwrap();
-    let (l, l_true) = (drift["params"]["L"].as_f64().unwrap(), truth["settings"]["L"].as_f64().unwrap());
-    assert!((l / l_true - 1.0).abs() < 0.01, "L {l} H for {l_true}");
-    let (r, r_true) = (selected[0]["params"]["switch_resistance"].as_f64().unwrap(), truth["settings"]["ron_hs"].as_f64().unwrap());
-    assert!((r / r_true - 1.0).abs() < 0.1, "high side {r} Ω for {r_true}");
-    let cl_true = truth["cl_true"].as_f64().unwrap();
-    let last = selected.last().unwrap();
-    let [lo, hi] = [0, 1].map(|i| last["cl"]["ci95"][i].as_f64().unwrap());
-    assert!(lo <= cl_true && cl_true <= hi && hi / lo < 1.1, "Cl {cl_true:e} outside the identified [{lo:e}, {hi:e}]");
+    assert_within("L [H]", &drift["params"]["L"], &truth["settings"]["L"], 0.01);
+    assert_within("high side [Ω]", &selected[0]["params"]["switch_resistance"], &truth["settings"]["ron_hs"], 0.1);
+    assert_final_cl_holds_truth(&dx, &truth, 1.1);
 }
 
 /// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed

@@ -1124,8 +1124,7 @@ impl SimulatedEffect {
             params.insert(f.name().to_string(), e.value);
             ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
         }
-        let start = Start::fitted(&cand.fit, data.vout.first().copied().unwrap_or_default());
-        if self.frees(Free::Isat) && !knee_placed(&cand.fit.params, start, data) {
+        if self.frees(Free::Isat) && !knee_placed(&cand.fit.params, Start::fitted(&cand.fit, data.vout.first().copied().unwrap_or_default()), data) {
             ci95.insert(Free::Isat.name().to_string(), [0.0, f64::INFINITY]);
         }
         if self.dcm {

@@ -403,7 +403,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if rms > select::STUCK_FLOORS * floor {
             return Some((rms, String::new()));
         }
-        let misfit = contradicts_il(s).filter(|_| baseline.misses_materially(rms) == Some(true))?;
+        if baseline.misses_materially(rms) != Some(true) {
+            return None;
+        }
+        let misfit = contradicts_il(s)?;
         Some((rms, format!(", its model's inductor current matching the measured one only through a probe gain of ×{:.2}", misfit.probe_gain)))
     };
     if let (Some(_), Some(floor)) = (first, baseline.floor) {
