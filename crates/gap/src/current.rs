@@ -14,6 +14,7 @@
 //! what tells the impedance, and the reading's slip is said.
 use buck_model::Params;
 use estimator::data::DataSet;
+use estimator::simulated::Start;
 use serde::Serialize;
 
 /// A current probe's or shunt amplifier's gain error beyond which a model's inductor current
@@ -25,6 +26,14 @@ pub const PROBE_GAIN_TOLERANCE: f64 = 0.10;
 /// floor, beyond which the model's impedance is wrong: [`crate::GROSS_MISS_FLOORS`], as for
 /// `vout`.
 const MISFIT_FLOORS: f64 = crate::GROSS_MISS_FLOORS;
+
+/// The inductor current of the circuit `p` at `data`'s samples, simulated from `start`, as the
+/// circuit carries it: its il reading's zero and gain errors set aside. `None` where the
+/// simulation fails.
+pub(crate) fn model_il(p: &Params, data: &DataSet, start: Start) -> Option<Vec<f64>> {
+    let raw = Params { il_offset: 0.0, il_gain_error: 0.0, ..*p };
+    estimator::simulated::simulate_outputs(&raw, data, start).ok().map(|(_, il)| il)
+}
 
 /// How a model's inductor current misses the measured one, held out, calibrated as a probe
 /// would be (its zero and gain errors fitted).
@@ -50,8 +59,7 @@ impl CurrentMisfit {
     pub(crate) fn of(data: &DataSet, p: &Params, n_est: usize) -> Option<Self> {
         let il = data.il.as_ref()?;
         let (floor, _) = estimator::noise::white_noise(data, il)?;
-        let raw = Params { il_offset: 0.0, il_gain_error: 0.0, ..*p };
-        let (_, sim) = estimator::simulated::simulate_outputs(&raw, data, data.vout[0]).ok()?;
+        let sim = model_il(p, data, Start::from(data.vout[0]))?;
         let (measured, simulated) = (il.get(n_est..)?, sim.get(n_est..)?);
         let (_, gain_error) = estimator::simulated::reading_calibration(measured, simulated);
         let probe_gain = 1.0 + gain_error;

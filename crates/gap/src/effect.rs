@@ -1164,8 +1164,7 @@ pub(crate) const KNEE_SHARE: f64 = 0.05;
 /// current, simulated on `data`'s inputs from `start`, at no less than [`KNEE_SHARE`] of the
 /// samples (each at its period's start). Where the simulation fails nothing is said against it.
 pub(crate) fn knee_placed(p: &Params, start: Start, data: &DataSet) -> bool {
-    let p = Params { il_offset: 0.0, il_gain_error: 0.0, ..*p };
-    let Ok((_, il)) = estimator::simulated::simulate_outputs(&p, data, start) else { return true };
+    let Some(il) = crate::current::model_il(p, data, start) else { return true };
     let below = il.iter().filter(|i| i.abs() < p.isat).count();
     below as f64 >= KNEE_SHARE * il.len() as f64
 }

@@ -410,8 +410,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         Some((rms, format!(", its model's inductor current matching the measured one only through a probe gain of ×{:.2}", misfit.probe_gain)))
     };
     if let (Some(_), Some(floor)) = (first, baseline.floor) {
+        // The path taken's own judgement, made once per path (its il check is a simulation).
+        let mut stuck_at = None;
         for other_first in select::alternatives(&effects, &tried) {
-            let Some((rms_left, why)) = stuck(&selected, floor) else { break };
+            let Some((rms_left, why)) = stuck_at.get_or_insert_with(|| stuck(&selected, floor)).clone() else { break };
             if selected.len() >= select::MAX_EFFECTS {
                 break;
             }
@@ -420,7 +422,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             selection_ended = match closes {
                 Some(c) => {
                     let before = format!("the path from {from} stopped {:.1} floors above the noise{why}: {selection_ended}", rms_left / floor);
-                    (selected, from) = (other, other_first.name);
+                    (selected, from, stuck_at) = (other, other_first.name, None);
                     format!("{other_ended} (from {}, closing {c:.1} % of the gap left where {before})", other_first.name)
                 }
                 None => format!("{selection_ended}; the path from {} closes no material share of the gap left", other_first.name),

@@ -13,6 +13,7 @@
 //! grey-box effects too: a series resistance is `RL` free, a drift `L`, `C` or `Rc` free), so
 //! the effects combine exactly; on averaged data, with the averaged grey-box model
 //! (`switch_resistance`, `param_drift`, `delay`).
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use buck_model::Params;
@@ -149,9 +150,10 @@ impl Stack {
         Ok(self)
     }
 
-    /// The data as this model sees it (the duty delayed, or every input a row early: [`delayed`]).
-    pub fn data(&self, data: &DataSet) -> DataSet {
-        if self.delay != 0 { delayed(data, self.delay) } else { data.clone() }
+    /// The data as this model sees it (the duty delayed, or every input a row early: [`delayed`]);
+    /// borrowed as it is where the model reads it on time.
+    pub fn data<'a>(&self, data: &'a DataSet) -> Cow<'a, DataSet> {
+        if self.delay != 0 { Cow::Owned(delayed(data, self.delay)) } else { Cow::Borrowed(data) }
     }
 
     /// Fits the free parameters from the best of `starts`: with the plant simulator on switched
