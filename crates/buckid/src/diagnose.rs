@@ -210,6 +210,9 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
     if let Some(d) = e.drift_percent {
         out.push(format!("{d:+.2} % from nominal"));
     }
+    if let Some(r) = e.of_rl_percent {
+        out.push(format!("{r:+.2} % of RL"));
+    }
     if let Some(stand_in) = &e.stand_in {
         out.push(stand_in.clone());
     }

@@ -732,6 +732,25 @@ fn a_path_whose_current_contradicts_the_measured_one_gives_way() {
     assert_final_cl_holds_truth(&dx, &truth, 1.1);
 }
 
+/// An independent-harness synchronous buck with 40 ns of dead time, 535 pF on its node and
+/// switches of 0.03 mΩ, 0.61 µF of load behind a 44 mΩ ESR, read 238 ns late (blind bench, seed
+/// 3131, dataset 11). After the dead time, the late reading and the node's capacitance, a
+/// switch resistance of 0.64 mΩ closed most of the 1.2 floors left, and was named: 0.6 % of
+/// the 100 mΩ in series with L, an RL within its 1 % tolerance. It is said so, not named, and
+/// Cl's interval, widened for what the model still misses, holds the truth.
+#[test]
+fn a_resistance_within_the_tolerance_of_rl_is_no_finding() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "dead-time-load-esr-3131-11"));
+    let names = selected_names(&dx);
+    assert_eq!(names.first(), Some(&"dead_time"), "{names:?}");
+    assert!(names.contains(&"switch_node_capacitance") && !names.contains(&"switch_resistance"), "{names:?}");
+    let ended = dx["selection_ended"].as_str().unwrap();
+    assert!(ended.contains("drift within tolerance (switch_resistance") && ended.contains("% of RL)"), "{ended}");
+    let dead_time = &dx["selected"][0]["params"]["dead_time"];
+    assert_within("dead time [s]", dead_time, &truth["settings"]["dead_time"], 0.05);
+    assert_final_cl_holds_truth(&dx, &truth, 1.6);
+}
+
 /// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed
 /// 4302): its diode candidate closes 99 % of the gap, but with L at its nominal the drop stands
 /// in for the inductor in each period's charge and runs to the 5 V bound, Cl to 1 nF. No effect

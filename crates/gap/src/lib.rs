@@ -355,7 +355,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let (mut selected, mut selection_ended) = match first {
         Some(first) if first.finding => path(first),
-        Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({} {:+.2} %)", drift.name, drift.drift_percent.unwrap_or(f64::NAN))),
+        Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({})", drift.drift_label())),
         None => {
             // The candidate closing most of a material share that ended on a bound, if any.
             let on_bound = effects.iter().filter(|e| e.at_bound && e.material).filter_map(|e| Some((e.name, e.closed_percent?))).max_by(|a, b| a.1.total_cmp(&b.1));

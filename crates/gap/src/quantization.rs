@@ -102,6 +102,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         closed_of_remaining: None,
         material,
         drift_percent: None,
+        of_rl_percent: None,
         within_tolerance: false,
         at_bound: false,
         cl_on_bound: false,

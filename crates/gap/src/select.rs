@@ -922,7 +922,7 @@ pub(crate) fn forward(
             break why.to_string();
         };
         if !fit.finding {
-            break format!("what is left is best explained by a drift within tolerance ({} {:+.2} %)", fit.name, fit.drift_percent.unwrap_or(f64::NAN));
+            break format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label());
         }
         stack = Stack { params: cand.fit.params, ..extended };
         // The extension's stack holds the effect's parameters; its name goes with them (what the
@@ -1031,6 +1031,9 @@ pub(crate) fn at_final_values(selected: &mut [EffectFit], last: &Candidate, nomi
                 e.drift_percent = Some(100.0 * (est.value / nominal_value - 1.0));
             }
         }
+        if e.of_rl_percent.is_some() {
+            e.of_rl_percent = crate::effect::series_resistance(e.name, &e.params).map(|r| 100.0 * r / nominal.rl);
+        }
     }
 }
 
@@ -1045,7 +1048,7 @@ mod tests {
     /// the model.
     #[test]
     fn an_effect_that_alone_beat_the_model_so_far_is_fitted_past_the_screen() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, duty_range: [0.4, 0.6] };
+        let baseline = Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
         let nominal = Params::default();
         let offered = || Stack::nominal(&nominal, 3e-6, true).extensions(&nominal, true, 0.0);
         let alone =

@@ -397,6 +397,26 @@ fn immaterial_or_tolerated_mismatch_is_none() {
     assert_eq!(dx.verdict, "param_drift");
 }
 
+/// A resistance in series with L is a drift of the path's RL: 0.5 mΩ beside its 100 mΩ at
+/// 10 A, plainly significant under 0.1 mV of noise, is reported within the 1 % tolerance with
+/// its share of RL, not named; a tighter tolerance names it.
+#[test]
+fn a_series_resistance_within_the_tolerance_of_rl_is_none() {
+    let switched = DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() };
+    let c = plant(Params { cl: CL, rl: 0.1005, ..Params::default() }, Mode::Switched);
+    let exp = Experiment { samples: 3001, noise_vout: 0.1e-3, noise_seed: 11, io: 10.0, ..Experiment::default() };
+    let mut d = run(&mut ModelPlant::with_converter_in_open_loop(c), &exp).unwrap();
+    d.meta.retain(|k, _| k == "fs" || k == "U");
+    let dx = diagnose(&d, &Params::default(), &switched).unwrap();
+    let resistance = dx.effects.iter().find(|e| e.name == "switch_resistance").unwrap();
+    assert!(resistance.significant && resistance.within_tolerance && !resistance.finding, "{resistance:?}");
+    assert!(resistance.of_rl_percent.is_some_and(|r| (r - 0.5).abs() < 0.1), "{:?}", resistance.of_rl_percent);
+    assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
+    assert!(dx.selection_ended.contains("switch_resistance +0.5"), "{}", dx.selection_ended);
+    let dx = diagnose(&d, &Params::default(), &DiagnoseOptions { tolerance: 0.001, ..switched }).unwrap();
+    assert_eq!(dx.verdict, "switch_resistance", "{}", dx.selection_ended);
+}
+
 /// A large series resistance at a heavy load (40 mΩ at 10 A, Cl 0.47 µF), where the nominal
 /// fit runs Cl to the bottom of its range: the candidate starts from a grid over Cl and the
 /// resistance, not from that fit, and finds both.
