@@ -104,6 +104,11 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
     if s.pair_cases > 0 {
         println!("| both effects of a two-effect dataset named (≥ 80 %) | {} (at least one: {}) |", percent(s.pair_named, s.pair_cases), percent(s.pair_one_named, s.pair_cases));
+        println!(
+            "| … of those each of whose effects leaves a gap above the measurement noise by itself | {} ({} with one below the detection limit) |",
+            percent(s.pair_detectable_named, s.pair_detectable_cases),
+            s.pair_cases - s.pair_detectable_cases
+        );
     }
     if s.several_cases > 0 {
         println!("| every effect of a several-effect dataset named | {} (of their effects: {}) |", percent(s.several_named, s.several_cases), percent(s.several_effects_named, s.several_effects));
@@ -159,7 +164,11 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
         );
     }
     for o in part.iter().filter(|o| !o.hit()) {
-        let limit = if o.detectable || o.truth.effects().is_empty() { "" } else { ", no gap above the noise" };
+        let limit = match o.below_detection.as_slice() {
+            [] if o.detectable || o.truth.effects().is_empty() => String::new(),
+            [] => ", no gap above the noise".to_string(),
+            below => format!(", no gap above the noise from {}", below.join(" or ")),
+        };
         let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
         println!("- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})", o.truth.label(), o.said(), o.true_cl * 1e6, o.truth.io, settings(o));
     }

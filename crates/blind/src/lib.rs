@@ -108,6 +108,10 @@ pub struct Case {
     /// a twin without them was run (the harness: its late ADC leaves a gap of its own); else
     /// the gap the nominal model leaves decides detectability.
     pub effect_rms: Option<f64>,
+    /// Of a dataset withholding two or more distinct effects, what each adds to `vout` by
+    /// itself (a twin run without it alone), in the order of [`Truth::effects`]; `None` for
+    /// one without a twin (a diode or a dead time: the topology itself). Empty elsewhere.
+    pub effect_rms_each: Vec<Option<f64>>,
     /// The load capacitance the data shows, which the scores compare against [F]: `truth.cl`,
     /// except for a DC-biased ceramic, whose small-signal capacitance at its operating point it
     /// is, the output voltage averaged in time ([`operating_point`]; the value at 0 V is an
@@ -222,7 +226,7 @@ pub fn plant_case(truth: Truth, seed: u64, fmu: Option<&Path>) -> Result<Case, E
     };
     let model = model_for(truth.effect);
     let true_cl = model_biased_cl(&truth, operating_point(&data)?);
-    Ok(Case { data: blind(data), nominal: Params::default(), model, source: if fmu.is_some() { "fmu" } else { "in-process" }, true_cl, truth, effect_rms: None })
+    Ok(Case { data: blind(data), nominal: Params::default(), model, source: if fmu.is_some() { "fmu" } else { "in-process" }, true_cl, truth, effect_rms: None, effect_rms_each: Vec::new() })
 }
 
 /// How to run the ngspice generator (`scripts/spice/buck_spice.py`).
@@ -305,7 +309,7 @@ pub fn spice_case(truth: Truth, seed: u64, spice: &Spice) -> Result<Case, Estima
     data.vout.iter_mut().for_each(|v| *v += noise.sample(&mut rng));
     let model = model_for(truth.effect);
     let true_cl = model_biased_cl(&truth, operating_point(&data)?);
-    Ok(Case { data: blind(data), nominal, model, source: "ngspice", true_cl, truth, effect_rms: None })
+    Ok(Case { data: blind(data), nominal, model, source: "ngspice", true_cl, truth, effect_rms: None, effect_rms_each: Vec::new() })
 }
 
 /// How to run the independent harness (`scripts/spice/harness/harness.py`): circuits written
@@ -514,20 +518,22 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
     };
     let data = run(truth.cl, &truth.settings, "data.csv")?;
     let true_cl = harness_biased_cl(&truth, operating_point(&data)?);
-    let keys: Option<Vec<&str>> = truth.effects().iter().map(|e| harness_effect_keys(e)).collect::<Option<Vec<_>>>().map(|k| k.concat());
-    let effect_rms = match keys.filter(|k| !k.is_empty()) {
-        Some(keys) => {
-            let settings: Vec<(&'static str, f64)> = truth.settings.iter().copied().filter(|(k, _)| !keys.contains(k)).collect();
-            // A biased ceramic's twin is the linear capacitor of its operating point: what is
-            // left is the bias's nonlinearity, the only part a fitted Cl cannot take up.
-            let twin = run(true_cl, &settings, "twin.csv")?;
-            let start = data.len() - data.len() / 3;
-            let d: Vec<f64> = data.vout[start..].iter().zip(&twin.vout[start..]).map(|(a, b)| a - b).collect();
-            Some((d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt())
-        }
-        None => None,
+    // What the settings `keys` add to `vout` over the held-out third: the RMS of the data less
+    // a twin run without them. A biased ceramic's twin is the linear capacitor of its operating
+    // point: what is left is the bias's nonlinearity, the only part a fitted Cl cannot take up.
+    let footprint = |keys: &[&str]| -> Result<f64, EstimatorError> {
+        let settings: Vec<(&'static str, f64)> = truth.settings.iter().copied().filter(|(k, _)| !keys.contains(k)).collect();
+        let twin = run(true_cl, &settings, "twin.csv")?;
+        let start = data.len() - data.len() / 3;
+        let d: Vec<f64> = data.vout[start..].iter().zip(&twin.vout[start..]).map(|(a, b)| a - b).collect();
+        Ok((d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt())
     };
-    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness", effect_rms, true_cl })
+    let effects = truth.effects();
+    let keys: Option<Vec<&str>> = effects.iter().map(|e| harness_effect_keys(e)).collect::<Option<Vec<_>>>().map(|k| k.concat());
+    let effect_rms = keys.filter(|k| !k.is_empty()).map(|keys| footprint(&keys)).transpose()?;
+    let distinct = effects.iter().all(|e| effects.iter().filter(|a| *a == e).count() == 1);
+    let effect_rms_each = if effects.len() >= 2 && distinct { effects.iter().map(|e| harness_effect_keys(e).map(footprint).transpose()).collect::<Result<Vec<_>, _>>()? } else { Vec::new() };
+    Ok(Case { data: blind(data), nominal: Params::default(), model: Nominal::Switched, truth, source: "harness", effect_rms, effect_rms_each, true_cl })
 }
 
 fn mean(x: &[f64]) -> f64 {
@@ -611,6 +617,10 @@ pub struct Outcome {
     /// where a twin was run), else the nominal model's miss, exceeds the true measurement noise
     /// ([`gap::gap_above`]).
     pub detectable: bool,
+    /// Of a dataset withholding several distinct effects, the ones whose own footprint
+    /// ([`Case::effect_rms_each`]) is not above the true measurement noise: no diagnosis can
+    /// name them from this data.
+    pub below_detection: Vec<&'static str>,
     /// The diagnosis's own, model-free estimate of the sensor noise [V].
     pub noise_floor: Option<f64>,
     /// The verdict's Cl estimate and its CI95 [F].
@@ -691,6 +701,7 @@ pub fn named_effects(dx: &gap::Diagnosis) -> Vec<String> {
 /// Diagnoses `case` as a user would (data, nominal values, model; nothing else) and scores it.
 pub fn diagnose_case(case: &Case) -> Outcome {
     let opts = gap::DiagnoseOptions { nominal: case.model, ..gap::DiagnoseOptions::default() };
+    let noise = case.truth.measurement_noise();
     let clock = std::time::Instant::now();
     let result = gap::diagnose(&case.data, &case.nominal, &opts);
     let seconds = clock.elapsed().as_secs_f64();
@@ -702,6 +713,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         shrink_percent: None,
         closed_percent: None,
         detectable: false,
+        below_detection: case.truth.effects().into_iter().zip(&case.effect_rms_each).filter(|(_, rms)| rms.is_some_and(|r| !gap::gap_above(r.hypot(noise), noise))).map(|(e, _)| e).collect(),
         noise_floor: None,
         cl: None,
         cl_check: None,
@@ -718,7 +730,6 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             let (cl, ci95, _) = dx.final_cl();
             outcome.final_cl = Some((cl, ci95));
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
-            let noise = case.truth.measurement_noise();
             outcome.detectable = match case.effect_rms {
                 Some(rms) => gap::gap_above(rms.hypot(noise), noise),
                 None => gap::gap_above(dx.gap_before.rms, noise),
@@ -762,6 +773,11 @@ pub struct Scores {
     pub pair_named: usize,
     /// Of those, with at least one named.
     pub pair_one_named: usize,
+    /// Of those, the ones each of whose effects leaves a gap above the measurement noise by
+    /// itself ([`Outcome::below_detection`] empty).
+    pub pair_detectable_cases: usize,
+    /// Of those, with both named.
+    pub pair_detectable_named: usize,
     /// Datasets withholding three or more effects.
     pub several_cases: usize,
     /// Of those, with every one named.
@@ -799,6 +815,8 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         pair_cases: pair.len(),
         pair_named: pair.iter().filter(|o| o.hit()).count(),
         pair_one_named: pair.iter().filter(|o| o.truth.effects().iter().any(|e| o.named.iter().any(|n| n == e))).count(),
+        pair_detectable_cases: pair.iter().filter(|o| o.below_detection.is_empty()).count(),
+        pair_detectable_named: pair.iter().filter(|o| o.below_detection.is_empty() && o.hit()).count(),
         several_cases: several.len(),
         several_named: several.iter().filter(|o| o.hit()).count(),
         several_effects: several.iter().map(|o| o.truth.effects().len()).sum(),
@@ -856,6 +874,7 @@ mod tests {
             shrink_percent: None,
             closed_percent: None,
             detectable: true,
+            below_detection: Vec::new(),
             noise_floor: None,
             cl: None,
             cl_check: None,
@@ -878,5 +897,18 @@ mod tests {
         assert!(both.hit());
         let scores = score(&[one_drift, both]);
         assert_eq!((scores.several_cases, scores.several_named, scores.several_effects, scores.several_effects_named, scores.pair_cases), (2, 1, 8, 7, 0));
+    }
+
+    /// A pair with an effect that leaves no gap above the noise by itself is scored apart: both
+    /// named over all pairs, and over the pairs each of whose effects shows.
+    #[test]
+    fn a_pair_with_an_effect_below_detection_is_scored_apart() {
+        let pair = ["dead_time", "load_esr"];
+        let missed_faint = Outcome { below_detection: vec!["load_esr"], ..outcome(&pair, &["dead_time"]) };
+        let missed = outcome(&pair, &["dead_time", "switch_resistance"]);
+        let both = outcome(&pair, &["dead_time", "load_esr"]);
+        let s = score(&[missed_faint, missed, both]);
+        assert_eq!((s.pair_cases, s.pair_named, s.pair_one_named), (3, 1, 3));
+        assert_eq!((s.pair_detectable_cases, s.pair_detectable_named), (2, 1));
     }
 }

@@ -83,8 +83,8 @@ fn a_stand_in_taken_before_a_late_reading_is_dropped() {
 /// The harness's pair of a 5.7 % low ESR of C and unequal 6.5/9.6 mΩ switches beside 1.6 µF,
 /// its ADC 190 ns late (the bench's draw, seed 2026): on top of the late reading the screen
 /// ranks `diode_drop` and `dcm` first, both fail, and the next round finds the switches and the
-/// drift of Rc. Once named only as `sample_delay`, with Cl not identified. Skipped without
-/// ngspice or the `.venv`.
+/// drift of Rc. Once named only as `sample_delay`, with Cl not identified. Each effect shows by
+/// itself (its twin run without it alone). Skipped without ngspice or the `.venv`.
 #[test]
 fn a_pair_behind_failed_changes_of_switching_is_found() {
     let Some(harness) = blind::Harness::find(&fmu_fixture::root()) else {
@@ -94,7 +94,11 @@ fn a_pair_behind_failed_changes_of_switching_is_found() {
     let (seed, index) = (2026, 1_000_011);
     let truth = blind::draw_harness("param_drift", &["switch_resistance"], &blind::HarnessRanges::default(), &mut rng(seed, index));
     let case = blind::harness_case(truth, seed ^ index, &harness, blind::SAMPLES).unwrap();
+    // Each effect's own footprint, from a twin without it alone: both above the noise.
+    let each: Vec<f64> = case.effect_rms_each.iter().map(|r| r.expect("a twin of each")).collect();
+    assert!(each.len() == 2 && each.iter().all(|&r| r > 0.0 && r <= case.effect_rms.unwrap() * 1.5), "{each:?} of {:?}", case.effect_rms);
     let o = diagnose_case(&case);
+    assert!(o.below_detection.is_empty(), "{:?} below detection: {each:?}", o.below_detection);
     assert!(o.hit(), "said {}", o.said());
     assert_eq!(o.final_cl_in_ci95(), Some(true), "Cl {:?} for {:e}", o.final_cl, o.true_cl);
 }
