@@ -751,6 +751,23 @@ fn a_resistance_within_the_tolerance_of_rl_is_no_finding() {
     assert_final_cl_holds_truth(&dx, &truth, 1.6);
 }
 
+/// An independent-harness synchronous buck with L 19 % high and switches of 8.5 and 12.4 mΩ,
+/// 0.70 µF of load, read 42 ns late (blind bench, seed 3232, dataset 12). The drift and the
+/// switches leave the held-out vout at the floor read at the period start, with Cl
+/// 0.542 [0.435, 0.555] µF: the late reading is not material there. Refitted with the reading's
+/// instant free, the data makes 46 ns significant and puts Cl at 0.78 µF (`Cl·Rc` is 70 ns: the
+/// reading samples the load's own transient after each edge), so the interval spans both.
+#[test]
+fn a_significant_reading_instant_that_moves_cl_widens_its_interval() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "drift-switches-3232-12"));
+    assert_eq!(selected_names(&dx), ["param_drift", "switch_resistance"], "{}", dx["selection_ended"]);
+    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let late = &last["cl"]["read_late"];
+    assert_within("the reading's instant [s]", &late["sample_delay"], &truth["settings"]["adc_delay"], 0.2);
+    assert!(late["lr_statistic"].as_f64().unwrap() > late["lr_limit"].as_f64().unwrap(), "{late}");
+    assert_final_cl_holds_truth(&dx, &truth, 2.0);
+}
+
 /// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed
 /// 4302): its diode candidate closes 99 % of the gap, but with L at its nominal the drop stands
 /// in for the inductor in each period's charge and runs to the 5 V bound, Cl to 1 nF. No effect

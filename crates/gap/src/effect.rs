@@ -116,6 +116,11 @@ pub struct ClMove {
     /// (a drift of C that Cl took up). The interval spans both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub twin: Option<Twin>,
+    /// For a final model read at the period start: the same model with the reading's instant
+    /// fitted, where that instant is significant and Cl lies outside the interval
+    /// ([`ReadLate`]). The interval spans both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub read_late: Option<ReadLate>,
     /// For a final model whose inductor current the measured one matches only through a probe
     /// gain far beyond a probe's tolerance (Cl is then not identified), or through a reading
     /// that slipped (reversed, rescaled): how it misses.
@@ -145,6 +150,55 @@ impl Twin {
     /// The interval `ci95` spanning the twin's too (an interval not identified stays so).
     pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
         spanning(ci95, &[self.ci95])
+    }
+}
+
+/// The final model with the reading's instant fitted (`sample_delay`), for a model read at the
+/// period start. Every acquisition reads a little late (an ADC's conversion, a probe's and a
+/// filter's delays), and where `Cl·Rc` is tens of nanoseconds the reading samples the load's
+/// own transient after each edge: an instant the held-out `vout` does not show materially can
+/// move Cl by tens of per cent. Where the data makes the instant significant (likelihood ratio
+/// at 1 %, better held out, converged) and Cl lies outside the interval, the interval spans
+/// both. A harness buck with 0.70 µF of load, read 42 ns late, ended at the floor read on time
+/// with 0.542 [0.435, 0.555] µF; read at its fitted 46 ns, 0.78 µF.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReadLate {
+    /// The reading's fitted instant after each period start [s].
+    pub sample_delay: f64,
+    /// Its 95 % confidence interval [s].
+    pub sample_delay_ci95: [f64; 2],
+    /// The likelihood-ratio statistic of the instant against the model read at the period start.
+    pub lr_statistic: f64,
+    /// The statistic's limit at 1 % (χ² with one degree of freedom).
+    pub lr_limit: f64,
+    /// Its held-out residual [V RMS].
+    pub rms_after: f64,
+    /// Cl so read [F].
+    pub cl: f64,
+    /// Cl's 95 % confidence interval so read [F].
+    pub ci95: [f64; 2],
+}
+
+impl ReadLate {
+    /// The interval `ci95` spanning this one's too (an interval not identified stays so).
+    pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
+        spanning(ci95, &[self.ci95])
+    }
+}
+
+impl std::fmt::Display for ReadLate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [lo, hi] = self.ci95.map(|v| v * 1e6);
+        let [dlo, dhi] = self.sample_delay_ci95.map(|v| v * 1e9);
+        write!(
+            f,
+            "read {:.1} ns after each period start (CI95 {dlo:.1} … {dhi:.1} ns; significant, LR {:.1} > {:.1}, though not material: {:.3} mV held out), the model has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the reading's instant moves Cl, and the interval spans both",
+            self.sample_delay * 1e9,
+            self.lr_statistic,
+            self.lr_limit,
+            self.rms_after * 1e3,
+            self.cl * 1e6
+        )
     }
 }
 
@@ -187,6 +241,9 @@ impl ClMove {
         }
         if let Some(twin) = &self.twin {
             test += &format!("; {twin}");
+        }
+        if let Some(late) = &self.read_late {
+            test += &format!("; {late}");
         }
         if let Some(k) = self.widened_by {
             test += &format!("; widened ×{k:.2} for the model error the residual still shows");
@@ -256,6 +313,7 @@ impl ClMove {
             deep_dcm_miss: None,
             operating_point: None,
             twin: None,
+            read_late: None,
             current_misfit: None,
             probe_exact: None,
         };
@@ -1528,6 +1586,17 @@ pub(crate) mod tests {
         assert!(with("vout_gain_error", 0.3).is_some_and(|s| s.contains("+30 %")));
         // Other values are never judged so (a switch's 10 Ω is a bound's business).
         assert_eq!(with("switch_resistance", 10.0), None);
+    }
+
+    /// The model read at its fitted instant widens an identified interval to span its own, and
+    /// says the instant, its test and both Cl; an interval not identified stays so.
+    #[test]
+    fn a_significant_reading_instant_widens_cls_interval_to_its_own() {
+        let late = ReadLate { sample_delay: 46.5e-9, sample_delay_ci95: [44.2e-9, 49.0e-9], lr_statistic: 12.7, lr_limit: 6.6, rms_after: 3.94e-3, cl: 0.78e-6, ci95: [0.763e-6, 0.797e-6] };
+        assert_eq!(late.spanned([0.435e-6, 0.555e-6]), [0.435e-6, 0.797e-6]);
+        assert_eq!(late.spanned([0.0, f64::INFINITY]), [0.0, f64::INFINITY]);
+        let said = late.to_string();
+        assert!(said.contains("46.5 ns") && said.contains("LR 12.7 > 6.6") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
     }
 
     /// Cl's interval spans a twin model's where it is identified; one not identified stays so

@@ -32,7 +32,7 @@ pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
     ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, RECIPROCAL_BIAS_LAW,
-    closed_percent, gap_above, gap_material, model_error_inflation,
+    ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
@@ -490,6 +490,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         tested = final_test(&selected);
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
+    let read_late = select::read_late(data, nominal, &selected, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
@@ -549,6 +550,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if let Some(twin) = twin.or(pruned_twin) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
+        }
+        let [lo, hi] = last.cl.ci95;
+        if let Some(late) = read_late.filter(|late| estimator::validate::identified([lo, hi]) && !(lo..=hi).contains(&late.cl)) {
+            last.cl.ci95 = late.spanned(last.cl.ci95);
+            last.cl.read_late = Some(late);
         }
         // A model whose inductor current the measured one matches only through an implausible
         // probe gain has the wrong impedance: its Cl is not the converter's.

@@ -26,8 +26,8 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il, gross_miss,
-    il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il,
+    gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
@@ -693,6 +693,40 @@ pub(crate) fn for_cl(
     selected.push(fit);
     at_final_values(selected, &cand, nominal);
     Some(note)
+}
+
+/// The final model `selected`, read at the period start, refitted with the reading's instant
+/// free ([`crate::effect::ReadLate`]): where the instant is significant and converged, and Cl
+/// identified. Switched data and model only (the instant is the switched simulator's).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn read_late(data: &DataSet, nominal: &Params, selected: &[EffectFit], switched_nominal: bool, switched_data: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<ReadLate> {
+    let last = selected.last().filter(|e| estimator::validate::identified(e.cl.ci95))?;
+    if !switched_data {
+        return None;
+    }
+    let fits: Vec<&EffectFit> = selected.iter().collect();
+    let mut stack = Stack::of(&fits, nominal, last.cl.estimate, switched_nominal).ok()?;
+    if !stack.switched || stack.free.contains(&Free::SampleDelay) {
+        return None;
+    }
+    let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
+    stack.params = against.fit.params;
+    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
+    let late = stack.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == "sample_delay")?;
+    let t = late.trial(data, nominal, n_est, holdout).ok()?;
+    let (fit, _) = judge(late.name, t, &against, n_est, baseline);
+    let name = Free::SampleDelay.name();
+    let (sample_delay, sample_delay_ci95) = fit.params.get(name).copied().zip(fit.ci95.get(name).copied())?;
+    let (lr_statistic, lr_limit) = fit.lr_statistic.zip(fit.lr_limit)?;
+    (fit.significant && !fit.at_bound && estimator::validate::identified(fit.cl.ci95)).then_some(ReadLate {
+        sample_delay,
+        sample_delay_ci95,
+        lr_statistic,
+        lr_limit,
+        rms_after: fit.rms_after,
+        cl: fit.cl.estimate,
+        ci95: fit.cl.ci95,
+    })
 }
 
 /// Most effects the backward step refits without (each costs a fit of the final model less one).
