@@ -173,6 +173,9 @@ pub struct ReadLate {
     pub lr_limit: f64,
     /// Its held-out residual [V RMS].
     pub rms_after: f64,
+    /// It closes a material share of the gap the final model leaves ([`MATERIAL_SHARE`]; the
+    /// forward selection took another effect, or none, before it).
+    pub material: bool,
     /// Cl so read [F].
     pub cl: f64,
     /// Cl's 95 % confidence interval so read [F].
@@ -192,10 +195,11 @@ impl std::fmt::Display for ReadLate {
         let [dlo, dhi] = self.sample_delay_ci95.map(|v| v * 1e9);
         write!(
             f,
-            "read {:.1} ns after each period start (CI95 {dlo:.1} … {dhi:.1} ns; significant, LR {:.1} > {:.1}, though not material: {:.3} mV held out), the model has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the reading's instant moves Cl, and the interval spans both",
+            "read {:.1} ns after each period start (CI95 {dlo:.1} … {dhi:.1} ns; significant, LR {:.1} > {:.1}, {}: {:.3} mV held out), the model has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the reading's instant moves Cl, and the interval spans both",
             self.sample_delay * 1e9,
             self.lr_statistic,
             self.lr_limit,
+            if self.material { "and material" } else { "though not material" },
             self.rms_after * 1e3,
             self.cl * 1e6
         )
@@ -1592,11 +1596,12 @@ pub(crate) mod tests {
     /// says the instant, its test and both Cl; an interval not identified stays so.
     #[test]
     fn a_significant_reading_instant_widens_cls_interval_to_its_own() {
-        let late = ReadLate { sample_delay: 46.5e-9, sample_delay_ci95: [44.2e-9, 49.0e-9], lr_statistic: 12.7, lr_limit: 6.6, rms_after: 3.94e-3, cl: 0.78e-6, ci95: [0.763e-6, 0.797e-6] };
+        let late =
+            ReadLate { sample_delay: 46.5e-9, sample_delay_ci95: [44.2e-9, 49.0e-9], lr_statistic: 12.7, lr_limit: 6.6, rms_after: 3.94e-3, material: false, cl: 0.78e-6, ci95: [0.763e-6, 0.797e-6] };
         assert_eq!(late.spanned([0.435e-6, 0.555e-6]), [0.435e-6, 0.797e-6]);
         assert_eq!(late.spanned([0.0, f64::INFINITY]), [0.0, f64::INFINITY]);
         let said = late.to_string();
-        assert!(said.contains("46.5 ns") && said.contains("LR 12.7 > 6.6") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
+        assert!(said.contains("46.5 ns") && said.contains("LR 12.7 > 6.6, though not material") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
     }
 
     /// Cl's interval spans a twin model's where it is identified; one not identified stays so

@@ -730,6 +730,7 @@ pub(crate) fn read_late(data: &DataSet, nominal: &Params, selected: &[EffectFit]
         lr_statistic,
         lr_limit,
         rms_after: fit.rms_after,
+        material: fit.material,
         cl: fit.cl.estimate,
         ci95: fit.cl.ci95,
     })
