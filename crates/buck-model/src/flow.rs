@@ -165,6 +165,13 @@ pub(crate) struct Watch {
     pub sign: f64,
 }
 
+impl Watch {
+    /// The watched scalar where `dⁿxᵢ/dtⁿ` is `v`.
+    fn at(self, v: f64) -> f64 {
+        self.sign * (v - self.level)
+    }
+}
+
 /// One linear circuit with exact transitions over `T·2⁻ᵏ`, `k = 0..=depth`, the shortest with
 /// `‖A·T·2⁻ᵈᵉᵖᵗʰ‖₁ ≤ 1/8`, and the solution's Taylor polynomial ([`Tail`]) below that.
 ///
@@ -237,8 +244,7 @@ impl Ladder {
 
     /// The value of `watch` at the state `x`.
     pub fn value(&self, watch: Watch, x: &Vector4<f64>, u: &Vector2<f64>) -> f64 {
-        let v = if watch.order == 0 { x[watch.state] } else { self.slope(watch.state, x, u) };
-        watch.sign * (v - watch.level)
+        watch.at(if watch.order == 0 { x[watch.state] } else { self.slope(watch.state, x, u) })
     }
 
     fn shortest(&self) -> f64 {
@@ -281,7 +287,7 @@ impl Ladder {
         for rung in self.rungs.iter().rev() {
             while p.t + rung.h <= hi {
                 // A value needs its state alone: the whole state only where the rung is taken.
-                let positive = if watch.order == 0 { watch.sign * (rung.state_of(watch.state, &p.x, u) - watch.level) > 0.0 } else { self.value(watch, &rung.state(&p.x, u), u) > 0.0 };
+                let positive = if watch.order == 0 { watch.at(rung.state_of(watch.state, &p.x, u)) > 0.0 } else { self.value(watch, &rung.state(&p.x, u), u) > 0.0 };
                 if positive {
                     p = Point { t: p.t + rung.h, x: rung.state(&p.x, u), z: rung.integral(&p.x, &p.z, u) };
                 } else {

@@ -137,7 +137,7 @@ pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, 
 /// circuit values `start` (Cl from the model it extends).
 /// An effect whose fit fails is returned with the reason.
 fn simulated_trials(data: &DataSet, start: &Params, n_est: usize) -> Vec<(&'static str, Result<Trial, String>)> {
-    let io = data.io.iter().sum::<f64>() / data.len() as f64;
+    let io = crate::select::io_mean(data);
     SIMULATED_EFFECTS
         .par_iter()
         .map(|effect| {

@@ -30,6 +30,12 @@ use crate::effect::{
     gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
+/// The record's load current averaged over its samples [A] (what the extensions' probes are
+/// sized by).
+pub(crate) fn io_mean(data: &DataSet) -> f64 {
+    data.io.iter().sum::<f64>() / data.len().max(1) as f64
+}
+
 /// Effects a sequence takes before it counts as full: where a full sequence still misses
 /// materially, the joint refit is tried ([`crate::joint`]).
 pub(crate) const MAX_EFFECTS: usize = 4;
@@ -665,7 +671,7 @@ pub(crate) fn for_cl(
     }
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
-    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
+    let io_mean = io_mean(data);
     // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
     // it; what makes the output-error and high-pass fits disagree is in the dynamics.
     let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
@@ -713,7 +719,7 @@ pub(crate) fn read_late(data: &DataSet, nominal: &Params, selected: &[EffectFit]
     }
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
-    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
+    let io_mean = io_mean(data);
     let late = stack.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == "sample_delay")?;
     // Fitted only where the score test finds the instant significant and its linearized move of
     // Cl comes near the interval's edge (a quarter of its half-width: the linearization is rough).
@@ -788,7 +794,7 @@ pub(crate) fn forward(
     holdout: f64,
     baseline: &Baseline,
 ) -> (Vec<EffectFit>, String) {
-    let io_mean = data.io.iter().sum::<f64>() / data.len().max(1) as f64;
+    let io_mean = io_mean(data);
     let mut selected = from.to_vec();
     let Some(last) = from.last() else { return (selected, "no first step".to_string()) };
     let mut stack = match Stack::of(&from.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, switched_nominal) {
