@@ -490,7 +490,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         tested = final_test(&selected);
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
-    let read_late = select::read_late(data, nominal, &selected, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
@@ -503,6 +502,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         spread
     });
+    // The final model read later than the period start, where the data says so: after the law's
+    // swap, so that the instant is tested on the model whose Cl is reported.
+    let reported_ci95 = selected.last().map(|l| spread.as_ref().map_or(l.cl.ci95, |s| s.reported(l.cl.estimate, l.cl.ci95).1));
+    let read_late = reported_ci95.and_then(|ci95| select::read_late(data, nominal, &selected, ci95, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline));
     // The final circuit with its law's shape (the other law's fit, where the data prefers it),
     // run on the data's inputs where that tells something: a ceramic's operating point (a law
     // the nominal brings keeps its own reference), a diode buck's share of DCM periods.
