@@ -838,7 +838,10 @@ pub(crate) fn forward(
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
         let displaced = std::sync::Mutex::new(Vec::new());
         let fitted_drifts = std::sync::Mutex::new(Vec::new());
+        // The extensions fitted in this step, by name.
+        let tried = std::sync::Mutex::new(Vec::new());
         let try_one = |x: &Extension| {
+            tried.lock().map(|mut n| n.push(x.name)).ok();
             if x.name == "param_drift" {
                 fitted_drifts.lock().map(|mut d| d.push(x.added().to_vec())).ok();
             }
@@ -857,6 +860,8 @@ pub(crate) fn forward(
         let mut drifts = Vec::new();
         // An effect that alone left materially less than the model so far (see `proven_alone`).
         let mut proven = None;
+        // The circuit's extensions the screen may pass over (see below).
+        let mut passed_over: Vec<Extension> = Vec::new();
         if stack.switched {
             // A late reading is judged in il, which the vout screen cannot see: tried wherever
             // the model so far misses il materially, and first: one the current shows is taken
@@ -893,6 +898,7 @@ pub(crate) fn forward(
                 drifts = rest.iter().filter(|x| x.name == "param_drift").cloned().collect();
             }
             proven = proven_alone(&mut rest, alone, last, baseline);
+            passed_over = rest.iter().filter(|x| x.name != "param_drift" && !calibrates_reading(x.name)).cloned().collect();
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
@@ -945,7 +951,7 @@ pub(crate) fn forward(
             drifts.retain(|x| !fitted.iter().any(|f| f.as_slice() == x.added()));
             trials.extend(drifts.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
-        let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.into_inner().unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
+        let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.lock().map(|mut d| std::mem::take(&mut *d)).unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
         let swap_fits = |tried: &[Swap]| swaps(data, nominal, &selected, &stack, tried, &against, switched_data, io_mean, n_est, holdout, baseline);
         // A late reading il shows that displaces an effect already taken (a probe's offset
         // standing in for a filter's lag) replaces it first, as it would have been taken first.
@@ -978,6 +984,20 @@ pub(crate) fn forward(
         let Some((fit, cand, extended)) = next else {
             let why = if late_pending { "the gap left is within the noise floor" } else { "no further effect is a finding" };
             break why.to_string();
+        };
+        // A drift within tolerance, the best a step found while the gap left is material: the
+        // screen ranks an effect by its direction less those of the model so far, so one nearly
+        // along Cl's promises nothing (a load ESR whose corner lies far above fs). Those it passed
+        // over are fitted then, and the best finding among them taken instead: harness 3232/35
+        // (a dead time, a 36 mΩ load ESR beside 1.2 µF, read late, 0.4 nF on the node) stopped
+        // at C +0.73 % 1.5 floors above the noise, where the load ESR closes half the gap left.
+        let (fit, cand, extended) = if !fit.finding && !within {
+            let fitted = tried.lock().map(|n| n.clone()).unwrap_or_default();
+            passed_over.retain(|x| !fitted.contains(&x.name));
+            let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
+            best_material(more.into_iter(), |t| &t.0).filter(|t| t.0.finding).unwrap_or((fit, cand, extended))
+        } else {
+            (fit, cand, extended)
         };
         if !fit.finding {
             break format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label());
