@@ -703,10 +703,11 @@ pub(crate) fn for_cl(
 
 /// The final model `selected`, read at the period start, refitted with the reading's instant
 /// free ([`crate::effect::ReadLate`]): where the instant is significant and converged, and Cl
-/// identified. `cl_ci95` is the final model's Cl interval (a bias law's preferred shape's, where
-/// the data prefers the other law: `selected` then holds that law's fit). Switched data and model only (the instant is the switched simulator's). The
-/// [`screen`] spares the fit where the instant promises neither (7 % of the diagnosis time
-/// on harness seed 3232 and the bench sets when fitted everywhere).
+/// identified. `cl_ci95` is the final model's Cl interval (the other bias law's, where the data
+/// prefers it: `selected` then holds that law's fit). Switched data and model only (the instant
+/// is the switched simulator's). The [`screen`] spares the fit where the instant promises
+/// neither (7 % of the diagnosis time on harness seed 3232 and the bench sets when fitted
+/// everywhere).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn read_late(
     data: &DataSet,
@@ -993,11 +994,11 @@ pub(crate) fn forward(
         // A drift within tolerance, the best a step found while the gap left is material: the
         // screen ranks an effect by its direction less those of the model so far, so one nearly
         // along Cl's promises nothing (a load ESR whose corner lies far above fs). Those along Cl
-        // it passed over are fitted then, and the best finding among them taken instead (the
-        // other circuit extensions as well doubled the time of such a step and changed nothing on
-        // 263 datasets): harness 3232/35
-        // (a dead time, a 36 mΩ load ESR beside 1.2 µF, read late, 0.4 nF on the node) stopped
-        // at C +0.73 % 1.5 floors above the noise, where the load ESR closes half the gap left.
+        // ([`ALONG_CL`]) it passed over are fitted then, and the best finding among them taken
+        // instead. Harness 3232/35 (a dead time, a 36 mΩ load ESR beside 1.2 µF, read late,
+        // 0.4 nF on the node) stopped at C +0.73 % 1.5 floors above the noise, where the load
+        // ESR closes half the gap left. (Every circuit extension past the screen there doubled
+        // the time of such a step and changed nothing else on 263 datasets.)
         let (fit, cand, extended) = if !fit.finding && !within {
             let fitted = tried.lock().map(|n| n.clone()).unwrap_or_default();
             passed_over.retain(|x| !fitted.contains(&x.name));
