@@ -46,6 +46,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 TEMPLATE = os.path.join(HERE, "harness_buck.cir")
 TOPOLOGIES = ("sw", "sync", "async")
 
+# Longest an ngspice transient may run [s]: a case takes 30-110 s on two cores; seed 3434's
+# sixth (an ESL on the two-switch stage) still ran after 23 min, and the bench waited on it.
+NGSPICE_TIMEOUT = 900
+
 # Gate drive amplitude [V] and the NMOS threshold [V] of the level-1 cards.
 V_DRIVE = 10.0
 V_TH = 2.0
@@ -279,7 +283,10 @@ def transient(a, duty):
         cir = os.path.join(work, "harness.cir")
         with open(cir, "w") as fh:
             fh.write(netlist(a, full, T, raw))
-        proc = subprocess.run(["ngspice", "-b", cir], cwd=work, capture_output=True, text=True)
+        try:
+            proc = subprocess.run(["ngspice", "-b", cir], cwd=work, capture_output=True, text=True, timeout=NGSPICE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"ngspice did not finish the transient within {NGSPICE_TIMEOUT} s") from None
         vec = read_raw(raw) if os.path.exists(raw) else None
         # ngspice -b may exit 0 after aborting the transient: require tstop reached.
         if vec is None or abs(vec["time"][-1] - len(full) * T) > 1e-6 * T:
