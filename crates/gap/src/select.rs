@@ -843,14 +843,11 @@ pub(crate) fn forward(
         stack.params = against.fit.params;
         let mut extensions = stack.extensions(nominal, switched_data, io_mean);
         let displaced = std::sync::Mutex::new(Vec::new());
-        let fitted_drifts = std::sync::Mutex::new(Vec::new());
-        // The extensions fitted in this step, by name.
-        let tried = std::sync::Mutex::new(Vec::new());
+        // The extensions fitted in this step: each one's name and what it frees.
+        let fits_made = std::sync::Mutex::new(Vec::new());
+        let fits_so_far = || fits_made.lock().map(|f| f.clone()).unwrap_or_default();
         let try_one = |x: &Extension| {
-            tried.lock().map(|mut n| n.push(x.name)).ok();
-            if x.name == "param_drift" {
-                fitted_drifts.lock().map(|mut d| d.push(x.added().to_vec())).ok();
-            }
+            fits_made.lock().map(|mut f| f.push((x.name, x.added().to_vec()))).ok();
             let t = x.trial(data, nominal, n_est, holdout);
             if let Err(TrialError::Displaces(lost)) = &t {
                 let swap = Swap { name: x.name, added: x.added().to_vec(), lost: *lost };
@@ -953,8 +950,8 @@ pub(crate) fn forward(
         // 1 % probe of L promised nothing and L's fit closed 99.99 % of the gap. There,
         // when nothing screened is material, the drifts of L, C and Rc not yet fitted are.
         if !drifts.is_empty() && nothing_taken(&trials) {
-            let fitted = fitted_drifts.lock().map(|d| d.clone()).unwrap_or_default();
-            drifts.retain(|x| !fitted.iter().any(|f| f.as_slice() == x.added()));
+            let made = fits_so_far();
+            drifts.retain(|x| !made.iter().any(|(name, added)| *name == "param_drift" && added.as_slice() == x.added()));
             trials.extend(drifts.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
         let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.lock().map(|mut d| std::mem::take(&mut *d)).unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
@@ -1000,8 +997,8 @@ pub(crate) fn forward(
         // ESR closes half the gap left. (Every circuit extension past the screen there doubled
         // the time of such a step and changed nothing else on 263 datasets.)
         let (fit, cand, extended) = if !fit.finding && !within {
-            let fitted = tried.lock().map(|n| n.clone()).unwrap_or_default();
-            passed_over.retain(|x| !fitted.contains(&x.name));
+            let made = fits_so_far();
+            passed_over.retain(|x| !made.iter().any(|(name, _)| *name == x.name));
             let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
             best_material(more.into_iter(), |t| &t.0).filter(|t| t.0.finding).unwrap_or((fit, cand, extended))
         } else {
