@@ -31,8 +31,18 @@ pub fn prefix(magnitude: f64, unit: &str) -> (f64, &'static str) {
     PREFIXES.iter().copied().find(|(s, _)| magnitude >= *s * 0.999_5).unwrap_or((1e-15, "f"))
 }
 
-/// `value` with an SI prefix and `digits` significant digits, e.g. `437 mV`, `84.0 nH`.
+/// `value` with an SI prefix and `digits` significant digits, e.g. `437 mV`, `84.0 nH`. A
+/// magnitude a thousand times past the smallest or largest prefix (a bound of an interval that
+/// tells nothing, 5e-115 F … 2e102 F) reads as `0 F` or `∞ F`, not as a hundred digits.
 pub fn si(value: f64, unit: &str, digits: usize) -> String {
+    if !UNPREFIXED.contains(&unit) && value != 0.0 && value.is_finite() {
+        if value.abs() < 1e-18 {
+            return format!("0 {unit}");
+        }
+        if value.abs() >= 1e12 {
+            return format!("{}∞ {unit}", if value < 0.0 { "-" } else { "" });
+        }
+    }
     if !value.is_finite() {
         return format!("{value} {unit}").trim_end().to_string();
     }
@@ -158,6 +168,12 @@ mod tests {
         assert_eq!(si(0.0123, "dB", 3), "0.0123 dB");
         assert_eq!(si(62.345, "%", 3), "62.3 %");
         assert_eq!(prefix(4.5e-3, "s"), (1e-3, "m"));
+        // An uninformative interval's bounds (`identify` printed a hundred digits of each).
+        assert_eq!(si(5.5e-115, "F", 2), "0 F");
+        assert_eq!(si(1.88e102, "F", 2), "∞ F");
+        assert_eq!(si(-3e13, "Ω", 2), "-∞ Ω");
+        assert_eq!(si(2.5e-17, "F", 2), "0.025 fF");
+        assert_eq!(si(4.7e11, "Ω", 2), "470 GΩ");
     }
 
     #[test]
