@@ -802,20 +802,28 @@ fn a_capacitor_drift_cl_could_take_up_is_fitted_from_the_nominal_fit_too() {
     assert_final_cl_holds_truth(&dx, &truth, 10.0);
 }
 
-/// A thesis-stage diode buck at 0.6 A in DCM, L 11 % above its nominal (third generator, seed
-/// 4302): its diode candidate closes 99 % of the gap, but with L at its nominal the drop stands
-/// in for the inductor in each period's charge and runs to the 5 V bound, Cl to 1 nF. No effect
-/// is a finding, and the selection says which came close and why it is none; it had said "no
-/// candidate closes 25 % of it", which was not so.
+/// Diode bucks in DCM whose inductor is off its nominal (third generator): in DCM the output's
+/// level is set by L, so neither the DCM model at nominal L nor L's drift on the synchronous
+/// model closes a material share of the gap, and the selection had said `none`. Fitted
+/// together as a pair, they are the first two steps. Seed 9701 (L −19 %, 60 % of its periods in
+/// DCM, its Schottky's 0.35 V taken up by L): Cl 38.9 µF inside its interval, where every
+/// candidate had ended with Cl on its 1 F bound. Seed 4302 (L +11 %, every period in DCM):
+/// its diode candidate ran to the 5 V bound; now L's drift is named, and Cl, which a model in
+/// DCM all the time that still misses cannot pin down, is said not identified.
 #[test]
-fn a_candidate_on_a_bound_is_said_to_have_not_converged() {
-    let (dx, truth) = diagnose_third("thesis-several-4302");
-    assert!(truth["effects"].as_array().unwrap().contains(&serde_json::json!("diode_drop")), "{}", truth["effects"]);
-    assert_eq!(dx["verdict"], "none", "{}", dx["selection_ended"]);
+fn effects_that_only_together_explain_a_diode_buck_in_dcm_are_fitted_as_a_pair() {
+    let (dx, truth) = diagnose_third("thesis-several-9701");
     let ended = dx["selection_ended"].as_str().unwrap();
-    assert!(ended.contains("diode_drop closes 99.") && ended.contains("ends on a bound of its range, not converged"), "{ended}");
-    let diode = dx["effects"].as_array().unwrap().iter().find(|e| e["name"] == "diode_drop").expect("the diode candidate");
-    assert_eq!(diode["at_bound"], true, "{diode}");
+    assert_eq!(selected_names(&dx)[..2], ["dcm", "param_drift"], "{ended}");
+    assert!(ended.starts_with("no single effect is a finding; dcm with a drift of L"), "{ended}");
+    assert_within("L [H]", &dx["selected"][1]["params"]["L"], &truth["circuit"]["L"], 0.08);
+    assert_final_cl_holds_truth(&dx, &truth, 10.0);
+
+    let (dx, truth) = diagnose_third("thesis-several-4302");
+    assert_eq!(selected_names(&dx)[..2], ["dcm", "param_drift"], "{}", dx["selection_ended"]);
+    assert_within("L [H]", &dx["selected"][1]["params"]["L"], &truth["circuit"]["L"], 0.06);
+    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    assert!(last["cl"]["ci95"][1].is_null() && last["cl"]["deep_dcm_miss"]["dcm_share"].as_f64() > Some(0.9), "{}", last["cl"]);
 }
 
 /// Clean captures ten times quieter than the bench's (σ ≈ 0.2 mV). On the point-of-load buck

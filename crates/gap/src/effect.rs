@@ -1492,6 +1492,21 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
 pub(crate) mod tests {
     use super::*;
 
+    /// Why nothing is a finding, from the nominal's own gap: within the floor, immaterial on the
+    /// swing's scale, or material with the candidate that came closest on a bound of its range
+    /// (not converged), else with none closing a material share.
+    #[test]
+    fn nothing_found_says_why() {
+        let baseline = Baseline { nrmse: 0.99, rms: 0.18, cl: 1.0, floor: Some(3.3e-3), floor_samples: 2000, held_out: 1000, swing: 0.18, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let on_bound = baseline.nothing_found(Some(("diode_drop", 99.2)));
+        assert!(on_bound.contains("diode_drop closes 99.2 % of it but ends on a bound of its range, not converged"), "{on_bound}");
+        assert!(baseline.nothing_found(None).contains("yet no candidate closes 25 % of it"));
+        let within = Baseline { rms: 3.3e-3, ..baseline };
+        assert!(within.nothing_found(None).contains("misses within the noise floor (1.00× its RMS)"), "{}", within.nothing_found(None));
+        let immaterial = Baseline { rms: 3.5e-3, floor_samples: 1_000_000, held_out: 1_000_000, swing: 10.0, ..baseline };
+        assert!(immaterial.nothing_found(None).contains("immaterial"), "{}", immaterial.nothing_found(None));
+    }
+
     /// Cl is voided in DCM only where the model still misses and DCM leaves no CCM periods to
     /// pin the total capacitance: the bench's own deep-DCM sets (93–100 % of periods, 1.00–1.06
     /// floors) keep theirs, as does a diode buck half in CCM missing by 2.8 floors.

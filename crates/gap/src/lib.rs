@@ -17,6 +17,7 @@ mod joint;
 mod limits;
 mod locate;
 mod options;
+mod pairs;
 mod quantization;
 mod select;
 mod tested;
@@ -331,9 +332,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // Forward selection from a first step, then the backward step and the joint refit; a full
     // sequence that the joint refit does not settle also goes on, one effect at a time (the
     // joint refit frees no ESL or bias law).
-    let path = |first: &EffectFit| {
+    let path = |first: &[EffectFit]| {
         let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, &effects, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
-        let (mut selected, mut ended) = forward(std::slice::from_ref(first), select::MAX_EFFECTS);
+        let (mut selected, mut ended) = forward(first, select::MAX_EFFECTS);
         let full = selected.len() >= select::MAX_EFFECTS;
         if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
             ended = format!("{ended}; then {dropped}");
@@ -354,8 +355,13 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         (selected, ended)
     };
     let (mut selected, mut selection_ended) = match first {
-        Some(first) if first.finding => path(first),
+        Some(first) if first.finding => path(std::slice::from_ref(first)),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({})", drift.drift_label())),
+        // Two effects that only together are a finding (see `pairs`).
+        None if let Some((steps, note)) = (switched && opts.nominal == Nominal::Switched).then(|| pairs::first_steps(data, nominal, &effects, &base, n_est, opts.holdout, &baseline)).flatten() => {
+            let (selected, ended) = path(&steps);
+            (selected, format!("{note}: {ended}"))
+        }
         None => {
             // The candidate closing most of a material share that ended on a bound, if any.
             let on_bound = effects.iter().filter(|e| e.at_bound && e.material).filter_map(|e| Some((e.name, e.closed_percent?))).max_by(|a, b| a.1.total_cmp(&b.1));
@@ -377,7 +383,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         && let Some((rival, kind)) = select::rival(&effects, first)
     {
         tried.push(rival.name);
-        let (other, other_ended) = path(rival);
+        let (other, other_ended) = path(std::slice::from_ref(rival));
         let closes = closes_of_left(&other, rms_left);
         let note = match closes {
             Some(c) => format!("; the path from {} ({kind}) closes {c:.1} % of the gap this one left ({:.2} mV held out): taken instead", rival.name, rms_left * 1e3),
@@ -417,7 +423,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             if selected.len() >= select::MAX_EFFECTS {
                 break;
             }
-            let (other, other_ended) = path(other_first);
+            let (other, other_ended) = path(std::slice::from_ref(other_first));
             let closes = closes_of_left(&other, rms_left);
             selection_ended = match closes {
                 Some(c) => {
@@ -440,7 +446,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let twin_first = selected.last().filter(at_floor).zip(taken).and_then(|(last, taken)| select::twin(&effects, taken, last.cl.ci95, &tried));
     let twin = twin_first.and_then(|other_first| {
-        let (other, other_ended) = path(other_first);
+        let (other, other_ended) = path(std::slice::from_ref(other_first));
         let twin = twin_of(&other)?;
         let this = selected.last()?;
         // The same effects by another path are the same model.
