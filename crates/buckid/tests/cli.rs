@@ -732,6 +732,37 @@ fn a_path_whose_current_contradicts_the_measured_one_gives_way() {
     assert_final_cl_holds_truth(&dx, &truth, 1.1);
 }
 
+/// Independent-harness synchronous bucks whose greedy paths took stand-ins and stayed in their
+/// valley, their joint refits too (blind bench, seed 3434). Dataset 36 (L +11 %, a 35 mΩ high
+/// side over a 14 mΩ low side, read 142 ns late, 9.37 µF) ended 1.5 floors above the noise with
+/// a 1 Ω load ESR, a filter and a gain error beside the switches and L +8 %, Cl not identified.
+/// Dataset 24 (L +23 %, 25 mΩ switches, read 148 ns late, 0.59 µF) ended at the floor with C
+/// +11 %, an offset, a 96 nH ESL and a load ESR, its model's inductor current matching the
+/// measured one only through a probe gain of ×0.82, Cl not identified. The converter's joint
+/// model from its nominal values, fitted from Cl's grid and pruned, is L, the switches and the
+/// instant as drawn, with Cl inside its interval; on dataset 24 the path at the floor whose
+/// current contradicts the measured one is no twin of it.
+#[test]
+fn the_converters_joint_model_from_its_nominal_values_replaces_a_path_of_stand_ins() {
+    for (name, ron_ls) in [("drift-switches-3434-36", true), ("drift-switches-3434-24", false)] {
+        let (dx, truth) = diagnose_generated(generated_fixture("harness", name));
+        let ended = dx["selection_ended"].as_str().unwrap();
+        assert!(ended.starts_with("the converter's joint model from its nominal values"), "{name}: {ended}");
+        let names = selected_names(&dx);
+        assert!(names.iter().all(|n| ["param_drift", "switch_resistance", "unequal_switches", "sample_delay"].contains(n)), "{name}: {names:?}");
+        let selected = dx["selected"].as_array().unwrap();
+        let param = |key: &str| selected.iter().find_map(|e| e["params"].get(key)).unwrap_or_else(|| panic!("{name}: no {key} in {names:?}"));
+        assert_within("L [H]", param("L"), &truth["settings"]["L"], 0.01);
+        assert_within("high side [Ω]", param("switch_resistance"), &truth["settings"]["ron_hs"], 0.02);
+        if ron_ls {
+            let low = param("low_side_ratio").as_f64().unwrap() * param("switch_resistance").as_f64().unwrap();
+            assert_within("low side [Ω]", &serde_json::json!(low), &truth["settings"]["ron_ls"], 0.05);
+        }
+        assert_within("ADC delay [s]", param("sample_delay"), &truth["settings"]["adc_delay"], 0.05);
+        assert_final_cl_holds_truth(&dx, &truth, 1.6);
+    }
+}
+
 /// An independent-harness synchronous buck with 40 ns of dead time, 535 pF on its node and
 /// switches of 0.03 mΩ, 0.61 µF of load behind a 44 mΩ ESR, read 238 ns late (blind bench, seed
 /// 3131, dataset 11). After the dead time, the late reading and the node's capacitance, a

@@ -435,13 +435,45 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             };
         }
     }
+    // A path that ends materially above the floor, or with a model whose inductor current
+    // contradicts the measured one: the converter's joint model from its nominal values (see
+    // `joint::from_nominal`), where it closes a material share of the gap the path left (or, the
+    // path at the floor, matches the measured current where the path's does not).
+    if switched
+        && opts.nominal == Nominal::Switched
+        && let Some(left) = selected.last().map(|e| e.rms_after)
+    {
+        let misses = baseline.misses_materially(left) == Some(true);
+        if misses || contradicts_il(&selected).is_some() {
+            // Above the floor it must close a material share of the gap left, with no more
+            // effects; the path at the floor, it must be there too.
+            let gap_left = if misses { left } else { baseline.rms };
+            let better = |other: &Vec<EffectFit>| {
+                contradicts_il(other).is_none()
+                    && if misses {
+                        other.len() <= selected.len() && closes_of_left(other, left).is_some()
+                    } else {
+                        other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false))
+                    }
+            };
+            if let Some(other) = joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline).filter(better) {
+                let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
+                selection_ended = format!(
+                    "the converter's joint model from its nominal values (every effect such a converter carries, fitted together, then pruned), where the path taken ended with {why}: {selection_ended}"
+                );
+                // No first step led there: no path from one is its twin.
+                (selected, from) = (other, "");
+            }
+        }
+    }
     // A path at the floor: the path from a first step nearly as good that puts Cl elsewhere
     // (see `select::twin`). Where it ends at the floor too, Cl's interval spans both; where it
     // also leaves less held out with no more effects, it is taken instead.
     let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
     let taken = effects.iter().find(|e| e.name == from);
+    // (Not one whose inductor current contradicts the measured one: the data tells it apart.)
     let twin_of = |s: &[EffectFit]| {
-        let end = s.last().filter(at_floor).filter(|e| estimator::validate::identified(e.cl.ci95))?;
+        let end = s.last().filter(at_floor).filter(|e| estimator::validate::identified(e.cl.ci95)).filter(|_| contradicts_il(s).is_none())?;
         Some(effect::Twin { selected: s.iter().map(EffectFit::label).collect(), rms_after: end.rms_after, cl: end.cl.estimate, ci95: end.cl.ci95 })
     };
     let twin_first = selected.last().filter(at_floor).zip(taken).and_then(|(last, taken)| select::twin(&effects, taken, last.cl.ci95, &tried));

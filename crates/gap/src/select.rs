@@ -21,7 +21,7 @@ use estimator::data::DataSet;
 use estimator::identify::{Candidate, IdentifyOptions, identify};
 use estimator::model::{Free, Structure};
 use estimator::simulated::{BURN_IN, Start, simulate};
-use estimator::simulated::{Criterion, fit_from_exactly};
+use estimator::simulated::{Criterion, fit_from, fit_from_exactly};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -178,6 +178,15 @@ impl Stack {
             (Err(a), Err(_)) => Err(a),
         })
         .unwrap_or_else(|| Err("no start".to_string()))
+    }
+
+    /// Fits the free parameters of this switched model from its values, Cl from the better of
+    /// its value and a coarse grid (`fit_from`): a start far from the fitted values.
+    pub(crate) fn fit_over_cl(&self, data: &DataSet, n_est: usize) -> Result<Candidate, String> {
+        if !self.switched {
+            return Err("only a switched model is fitted over Cl's grid".to_string());
+        }
+        fit_from(&self.data(data), &[self.params], &self.free, n_est, Criterion::OutputError).map_err(|e| e.to_string())
     }
 
     /// `name` as one more free parameter `f` of this model, started at each of `starts` and
