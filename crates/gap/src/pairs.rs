@@ -71,7 +71,7 @@ pub(crate) fn first_steps(data: &DataSet, nominal: &Params, effects: &[EffectFit
     let t = Extension::within(&with, "param_drift", &[drift], against.fit.params).assess(cand, data, nominal).ok()?;
     let (mut second, _) = judge("param_drift", t, &against, n_est, baseline);
     second.rebase(baseline, rms(&residual(&against)), baseline.rms);
-    let closed = pair.closed_percent.unwrap_or(f64::NAN);
+    let closed = pair.closed_percent?;
     let note = format!("no single effect is a finding; {} with a drift of {} ({:+.1} %) closes {closed:.1} % of the gap over the floor together", effect.name, drift.name(), 100.0 * relative);
     Some((vec![first, second.into_step()], note))
 }
