@@ -459,7 +459,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             if let Some(other) = joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline).filter(better) {
                 let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
                 selection_ended = format!(
-                    "the converter's joint model from its nominal values (every effect such a converter carries, fitted together, then pruned), where the path taken ended with {why}: {selection_ended}"
+                    "the converter's joint model from its nominal values (every effect such a converter carries, fitted together, then pruned), taken instead of the path, which ended with {why} ({selection_ended})"
                 );
                 // No first step led there: no path from one is its twin.
                 (selected, from) = (other, "");
