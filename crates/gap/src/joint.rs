@@ -225,7 +225,6 @@ pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectF
     let kind: Vec<&EffectFit> = selected.iter().filter(|e| KIND.contains(&e.name)).collect();
     let mut stack = Stack::of(&kind, nominal, baseline.cl, true).ok()?;
     let mut groups = groups_of(&kind, 0, nominal, baseline.cl, true)?;
-    let io = crate::select::io_mean(data);
     let has = |n: &str| kind.iter().any(|e| e.name == n);
     let diode = DIODE_TOPOLOGY.iter().any(|n| has(n));
     let mut adds: Vec<(&'static str, Free)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f)).collect();
@@ -246,25 +245,28 @@ pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectF
         stack.free.push(f);
         groups.push(Group { name, frees: vec![f], selected: false });
     }
-    stack.params = nominal_start(&stack, nominal, io);
+    stack.params = nominal_start(&stack, &groups, nominal);
     let cand = stack.fit_over_cl(data, n_est).ok()?;
     settle(data, nominal, stack, cand, groups, Vec::new(), gap_left, n_est, holdout, baseline).map(|(out, _)| out)
 }
 
-/// The joint model `stack` with every free value but Cl where a fit of it alone would start: the
-/// drifts at their nominal values, each effect at its candidate's first start.
-fn nominal_start(stack: &Stack, nominal: &Params, io_mean: f64) -> Params {
+/// The joint model `stack` of `groups` with every value they free where a fit of it alone would
+/// start: the drifts at their nominal values, each effect at its candidate's first start
+/// ([`candidate_start`]).
+fn nominal_start(stack: &Stack, groups: &[Group], nominal: &Params) -> Params {
     let mut p = stack.params;
-    for &f in stack.free.iter().filter(|&&f| f != Free::Cl) {
-        let start = match f {
-            Free::L | Free::C | Free::Rc | Free::RL | Free::LowSideRatio => Some(f.get(nominal)),
-            Free::SwitchResistance => Some(SWITCH_RESISTANCE_STARTS[0]),
-            Free::DiodeResistance => Some(DIODE_RESISTANCE_STARTS[0]),
-            Free::SwitchNodeCapacitance => Some(SWITCH_NODE_CAPACITANCE_STARTS[0]),
-            _ => SIMULATED_EFFECTS.iter().find(|e| e.extra.iter().any(|&(x, _)| x == f)).and_then(|e| e.starts(nominal, io_mean).first().map(|s| f.get(s))),
-        };
-        if let Some(v) = start {
-            f.set(&mut p, v);
+    for g in groups {
+        for &f in &g.frees {
+            let start = match f {
+                Free::L | Free::C | Free::Rc | Free::LowSideRatio => Some(f.get(nominal)),
+                Free::SwitchResistance => Some(SWITCH_RESISTANCE_STARTS[0]),
+                Free::DiodeResistance => Some(DIODE_RESISTANCE_STARTS[0]),
+                Free::SwitchNodeCapacitance => Some(SWITCH_NODE_CAPACITANCE_STARTS[0]),
+                _ => candidate_start(g.name, f, nominal),
+            };
+            if let Some(v) = start {
+                f.set(&mut p, v);
+            }
         }
     }
     p
