@@ -9,7 +9,7 @@ use estimator::model::{Free, Structure};
 use estimator::simulated::Criterion;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, DELAYS, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, residual, rms, variance};
+use crate::effect::{Baseline, DELAYS, DRIFTING, EffectFit, NotTested, SIMULATED_EFFECTS, Trial, delayed, held_out_nrmse, judge, residual, rms, variance};
 use crate::options::{DiagnoseOptions, Nominal, nominal_options};
 
 fn run(data: &DataSet, nominal: &Params, opts: IdentifyOptions) -> Result<Candidate, String> {
@@ -187,14 +187,12 @@ fn run_also_from(data: &DataSet, nominal: &Params, opts: IdentifyOptions, cl: Op
 /// nominal's fit, Cl `base_cl`, too), or why it could not be made.
 fn effect_trials(data: &DataSet, nominal: &Params, base_opts: &IdentifyOptions, base_cl: Option<f64>) -> Vec<(&'static str, Result<Trial, String>)> {
     // param_drift: one "known" value freed (the best of L, C, Rc).
-    let drift = best_of([Free::L, Free::C, Free::Rc].into_iter().map(|f| (f, run_also_from(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }, base_cl)))).and_then(
-        |(f, cand)| {
-            let e = cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()))?;
-            let params = BTreeMap::from([(f.name().to_string(), e.value), (format!("{}_nominal", f.name()), f.get(nominal))]);
-            let ci95 = BTreeMap::from([(f.name().to_string(), [e.ci95.0, e.ci95.1])]);
-            Ok(Trial { cand, params, ci95, extra: 1, not_nested: false, drift: Some(e.value / f.get(nominal) - 1.0) })
-        },
-    );
+    let drift = best_of(DRIFTING.into_iter().map(|f| (f, run_also_from(data, nominal, IdentifyOptions { free: vec![Free::Cl, f], ..base_opts.clone() }, base_cl)))).and_then(|(f, cand)| {
+        let e = cand.fit.estimate(f.name()).copied().ok_or_else(|| format!("no estimate of {}", f.name()))?;
+        let params = BTreeMap::from([(f.name().to_string(), e.value), (format!("{}_nominal", f.name()), f.get(nominal))]);
+        let ci95 = BTreeMap::from([(f.name().to_string(), [e.ci95.0, e.ci95.1])]);
+        Ok(Trial { cand, params, ci95, extra: 1, not_nested: false, drift: Some(e.value / f.get(nominal) - 1.0) })
+    });
     // switch_resistance: extra series resistance on top of RL (a fitted RL below the nominal is
     // not this effect: resistance is only ever added).
     let resistance = run_also_from(data, nominal, IdentifyOptions { free: vec![Free::Cl, Free::RL], ..base_opts.clone() }, base_cl).map_err(|e| format!("its fit failed: {e}")).and_then(|cand| {

@@ -748,6 +748,10 @@ pub fn gap_above(rms: f64, floor: f64) -> bool {
     rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
 }
 
+/// The circuit values a `param_drift` frees, one at a time: the passives the design table gives
+/// a tolerance for.
+pub(crate) const DRIFTING: [Free; 3] = [Free::L, Free::C, Free::Rc];
+
 /// Largest relative drift of a "known" L, C or Rc that is taken as `param_drift` (twice the
 /// design table's ±20 %): beyond it the freed value stands in for something else.
 pub const MAX_DRIFT: f64 = 0.5;

@@ -30,7 +30,7 @@ use estimator::identify::Candidate;
 use estimator::model::Free;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, Twin, effect_label, judge, residual, rms};
+use crate::effect::{Baseline, DRIFTING, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, Twin, effect_label, judge, residual, rms};
 use crate::select::{DIODE_RESISTANCE_STARTS, DIODE_TOPOLOGY, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
@@ -227,7 +227,7 @@ pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectF
     let mut groups = groups_of(&kind, 0, nominal, baseline.cl, true)?;
     let has = |n: &str| kind.iter().any(|e| e.name == n);
     let diode = DIODE_TOPOLOGY.iter().any(|n| has(n));
-    let mut adds: Vec<(&'static str, Free)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f)).collect();
+    let mut adds: Vec<(&'static str, Free)> = DRIFTING.into_iter().map(|f| ("param_drift", f)).collect();
     adds.push(("switch_resistance", Free::SwitchResistance));
     if !diode {
         adds.push(("unequal_switches", Free::LowSideRatio));
@@ -289,7 +289,7 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
     let mut groups = groups_of(&fits, ripple.len(), nominal, last.cl.estimate, switched_nominal)?;
     let has = |n: &str| fits.iter().any(|e| e.name == n);
     let diode = DIODE_TOPOLOGY.iter().any(|n| has(n));
-    let mut adds: Vec<(&'static str, Free, f64)> = [Free::L, Free::C, Free::Rc].into_iter().map(|f| ("param_drift", f, f.get(&stack.params))).collect();
+    let mut adds: Vec<(&'static str, Free, f64)> = DRIFTING.into_iter().map(|f| ("param_drift", f, f.get(&stack.params))).collect();
     if !stack.free.contains(&Free::RL) {
         adds.push(("switch_resistance", Free::SwitchResistance, SWITCH_RESISTANCE_STARTS[0].max(stack.params.switch_resistance)));
     }
@@ -354,7 +354,7 @@ fn settle(
     // core, C against Cl) can wander far past any tolerance: such a fit ended on a bound, no
     // physical model to prune. Pruning it back brought nothing on any set it was tried on, for
     // seconds of refits (a lab buck's L −50 %, C +107 % and Rc −60 %).
-    if [Free::L, Free::C, Free::Rc].into_iter().any(|f| (f.get(&cand.fit.params) / f.get(nominal) - 1.0).abs() > MAX_DRIFT) {
+    if DRIFTING.into_iter().any(|f| (f.get(&cand.fit.params) / f.get(nominal) - 1.0).abs() > MAX_DRIFT) {
         return None;
     }
     stack.params = cand.fit.params;

@@ -283,7 +283,7 @@ fn leverage(data: &DataSet, nominal: &Params, selected: &[EffectFit], circuit: O
     if !stack.switched {
         return None;
     }
-    let held: Vec<Free> = [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !stack.free.contains(f)).collect();
+    let held: Vec<Free> = effect::DRIFTING.into_iter().filter(|f| !stack.free.contains(f)).collect();
     let values = estimator::simulated::cl_leverage(&stack.data(data), &circuit.unwrap_or(stack.params), &stack.free, n_est, &held).ok()?;
     Some(held.iter().map(|f| f.name().to_string()).zip(values).collect())
 }

@@ -24,11 +24,8 @@ use estimator::model::Free;
 use estimator::simulated::{Criterion, fit_from};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, EffectFit, SIMULATED_EFFECTS, SimulatedEffect, Trial, gross_miss, judge, reads_vout, residual, rms};
+use crate::effect::{Baseline, DRIFTING, EffectFit, SIMULATED_EFFECTS, SimulatedEffect, Trial, gross_miss, judge, reads_vout, residual, rms};
 use crate::select::{Extension, Stack, at_final_values, io_mean};
-
-/// The drifts a pair may take.
-const DRIFTS: [Free; 3] = [Free::L, Free::C, Free::Rc];
 
 /// The first two steps of the selection where no single effect is a finding (`effects`, the
 /// candidates judged against the nominal fit `base`) while the nominal misses grossly: the
@@ -39,7 +36,7 @@ pub(crate) fn first_steps(data: &DataSet, nominal: &Params, effects: &[EffectFit
     let io = io_mean(data);
     let start = Params { cl: baseline.cl, ..*nominal };
     let alone = |e: &SimulatedEffect| effects.iter().find(|f| f.name == e.name);
-    let pairs: Vec<(&SimulatedEffect, Free)> = SIMULATED_EFFECTS.iter().filter(|e| !reads_vout(e.name) && alone(e).is_some()).flat_map(|e| DRIFTS.map(|f| (e, f))).collect();
+    let pairs: Vec<(&SimulatedEffect, Free)> = SIMULATED_EFFECTS.iter().filter(|e| !reads_vout(e.name) && alone(e).is_some()).flat_map(|e| DRIFTING.map(|f| (e, f))).collect();
     let fitted: Vec<(&SimulatedEffect, Free, Candidate)> = pairs
         .into_par_iter()
         .filter_map(|(e, f)| {

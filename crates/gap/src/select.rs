@@ -26,8 +26,8 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed, explains_il,
-    gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    Baseline, ClCheck, DELAYS, DRIFTING, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, delayed,
+    explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -125,7 +125,7 @@ impl Stack {
                 self.free.push(Free::RL);
             }
             "param_drift" => {
-                let f = [Free::L, Free::C, Free::Rc].into_iter().find(|f| e.params.contains_key(f.name())).ok_or("param_drift names no parameter")?;
+                let f = DRIFTING.into_iter().find(|f| e.params.contains_key(f.name())).ok_or("param_drift names no parameter")?;
                 f.set(&mut self.params, param(f.name())?);
                 self.free.push(f);
             }
@@ -226,7 +226,7 @@ impl Stack {
         }
         // Each "known" value drifts on its own (a real inductor's ±20 % and a capacitor's ESR
         // at once): one drift in the model does not rule out another.
-        for f in [Free::L, Free::C, Free::Rc].into_iter().filter(|f| !self.free.contains(f)) {
+        for f in DRIFTING.into_iter().filter(|f| !self.free.contains(f)) {
             out.push(self.freeing("param_drift", f, &DRIFT_STARTS.map(|k| k * f.get(nominal)), f.get(p) * (1.0 + PROBE_DRIFT)));
         }
         // A step on top offers the duty's latencies only: a one-row slip of the readings moves
