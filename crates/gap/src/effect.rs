@@ -44,6 +44,15 @@ pub(crate) fn calibrates_reading(name: &str) -> bool {
     frees_only(name, Free::calibrates_reading)
 }
 
+/// Whether the effect `name`'s form approximates a device's curve or edge rather than being the
+/// element it names: a diode's exponential as a drop and a slope, its blocking as DCM, a core's
+/// soft saturation as a hard knee, a ceramic's bias curve as one law, a dead time's gate ramps
+/// and body diodes as a held node, the node's capacitance as one lumped charge (see
+/// [`crate::tested::CIRCUIT_FIDELITY_WITH_DEVICES`]).
+pub(crate) fn approximates_a_device(name: &str) -> bool {
+    matches!(name, "diode_drop" | "diode_resistance" | "dcm" | "inductor_saturation" | "cap_dc_bias" | "dead_time" | "switch_node_capacitance")
+}
+
 /// Whether the effect `name` is what the vout reading does rather than the circuit: its
 /// calibration ([`calibrates_reading`]) or its filter (`sensor_filter`).
 pub(crate) fn reads_vout(name: &str) -> bool {
@@ -235,7 +244,7 @@ impl ClMove {
     /// not made), the bias law's spread, the operating point Cl is read at, the widening for
     /// model error, a gross miss, and the circuit model's fidelity the interval was held to
     /// (`held_to`, see [`crate::CL_FIDELITY`]).
-    pub(crate) fn sentence(&self, held_to: Option<f64>) -> String {
+    pub(crate) fn sentence(&self, held_to: Option<(f64, f64)>) -> String {
         let mut test = self.check.as_ref().map_or_else(|| format!("interval not tested: {}", self.check_skipped.as_deref().unwrap_or_default()), ToString::to_string);
         if let Some(law) = &self.bias_law {
             test += &format!("; {law}");
@@ -268,8 +277,8 @@ impl ClMove {
         if let Some(probe) = &self.probe_exact {
             test += &format!("; {probe}");
         }
-        if let Some(fidelity) = held_to {
-            test += &format!("; {}", crate::tested::held_to(fidelity));
+        if let Some((fidelity, circuit)) = held_to {
+            test += &format!("; {}", crate::tested::held_to(fidelity, circuit));
         }
         test
     }

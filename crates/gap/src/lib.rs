@@ -40,7 +40,7 @@ pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
 
 pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
-pub use tested::{CIRCUIT_FIDELITY, CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
+pub use tested::{CIRCUIT_FIDELITY, CIRCUIT_FIDELITY_WITH_DEVICES, CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
 
 /// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
 /// be taken instead (the joint model has fewer effects, each judged given all the others).
@@ -207,8 +207,12 @@ pub struct Diagnosis {
     /// The relative half-width the final Cl's CI95 is held to: [`CL_FIDELITY_WITH_EFFECTS`]
     /// where the final model carries effects, [`CL_FIDELITY`] for the nominal alone, or the
     /// circuit model's fidelity of L and C through Cl's leverage on them where that is wider
-    /// ([`CIRCUIT_FIDELITY`]).
+    /// ([`Diagnosis::cl_circuit_fidelity`]).
     pub cl_fidelity: f64,
+    /// The relative accuracy of L and C that [`Diagnosis::cl_fidelity`] allows for through Cl's
+    /// leverage: [`CIRCUIT_FIDELITY`], or [`CIRCUIT_FIDELITY_WITH_DEVICES`] where the final model
+    /// holds an effect whose form approximates a device.
+    pub cl_circuit_fidelity: f64,
     /// The nominal model used.
     pub nominal: Nominal,
     /// The inputs (`vin`, `io`) recorded by a measurement, and whether they were replaced by
@@ -232,7 +236,7 @@ impl Diagnosis {
                 &nominal
             }
         };
-        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some(self.cl_fidelity)))
+        (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some((self.cl_fidelity, self.cl_circuit_fidelity))))
     }
 
     /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
@@ -554,7 +558,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let operating = operation.filter(|(p, _)| biased(p)).and_then(|(p, o)| bias_law::operating_point(&p, o.vout_time_mean));
     let dcm_share = operation.filter(|(p, _)| p.asynchronous()).map(|(_, o)| o.dcm_share);
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
-    let cl_fidelity = tested::fidelity(if selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }, cl_leverage.as_ref());
+    let cl_circuit_fidelity = if selected.iter().any(|e| effect::approximates_a_device(e.name)) { CIRCUIT_FIDELITY_WITH_DEVICES } else { CIRCUIT_FIDELITY };
+    let cl_fidelity = tested::fidelity(if selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }, cl_circuit_fidelity, cl_leverage.as_ref());
     let (nominal_cl, cl_at_fidelity) = if let Some(last) = selected.last_mut() {
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
@@ -644,6 +649,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         cl_leverage,
         cl_at_fidelity,
         cl_fidelity,
+        cl_circuit_fidelity,
         nominal: opts.nominal,
         measured_inputs,
         traces,
