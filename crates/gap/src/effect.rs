@@ -702,6 +702,12 @@ impl EffectFit {
         calibrates_reading(self.name)
     }
 
+    /// Whether `simpler` is a special case of it: an inductor's saturation whose knee lies below
+    /// every current is a drift of L (see [`KNEE_SHARE`]).
+    pub(crate) fn nests(&self, simpler: &EffectFit) -> bool {
+        self.name == "inductor_saturation" && simpler.name == "param_drift" && simpler.params.contains_key("L")
+    }
+
     /// Whether it is named after the circuit's explanations ([`crate::select::best_material`]):
     /// what the vout reading does (its calibration, its filter) rather than the circuit, unless
     /// it explains what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.

@@ -444,9 +444,19 @@ impl Extension {
 /// effect can do too (at a constant load current a resistance's drop and a probe's offset read
 /// alike, and a gain error's slope with the duty mimics a late reading's). The circuit's
 /// explanation is named first; a calibration still material on top of it is the next step's.
+///
+/// Of two that pass where one is a special case of the other ([`EffectFit::nests`]), the richer
+/// is taken only where it predicts the held-out data better: a harness buck with L 8.8 % low
+/// took an inductor's saturation, its knee at 246 mA under 2 A of load, for 44 in Akaike's
+/// criterion over L's drift and 6.14 mV held out against 6.08.
 pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) -> &EffectFit) -> Option<T> {
-    items
-        .filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound)
+    let passing: Vec<T> = items.filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound).collect();
+    let no_better_than_nested = |e: &EffectFit| passing.iter().map(&fit).any(|simpler| e.nests(simpler) && simpler.rms_after <= e.rms_after);
+    let kept: Vec<bool> = passing.iter().map(|t| !no_better_than_nested(fit(t))).collect();
+    passing
+        .into_iter()
+        .zip(kept)
+        .filter_map(|(t, kept)| kept.then_some(t))
         .min_by(|a, b| (fit(a).last_resort(), fit(a).aic).partial_cmp(&(fit(b).last_resort(), fit(b).aic)).unwrap_or(std::cmp::Ordering::Equal))
 }
 
