@@ -710,6 +710,21 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
     assert_final_cl_holds_truth(&dx, &truth, 1.2);
 }
 
+/// An independent-harness buck with a 2.3 nH ESL behind its main capacitor, 2.12 µF of load,
+/// read 55 ns late (blind bench, seed 3737, dataset 18). On top of the late reading both a
+/// 0.09 % gain error of the vout reading and the ESL closed all the gap left, and the gain, by
+/// Akaike's criterion, was named: Cl 2.21 [2.18, 2.27] µF, confidently wrong. A reading's
+/// calibration is the explanation of last resort, also where a circuit effect explains all that
+/// is left: the ESL is named, at its drawn value, and Cl's interval holds the truth.
+#[test]
+fn a_circuit_effect_that_explains_all_is_named_before_a_readings_gain() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "esl-3737-18"));
+    let selected = dx["selected"].as_array().unwrap();
+    assert_eq!(selected_names(&dx), ["sample_delay", "esl"], "{}", dx["selection_ended"]);
+    assert_within("ESL [H]", &selected[1]["params"]["esl"], &truth["settings"]["esl"], 0.1);
+    assert_final_cl_holds_truth(&dx, &truth, 1.1);
+}
+
 /// An independent-harness buck with L 8.8 % low at 2.0 A of load (blind bench, seed 3636, dataset
 /// 31): an inductor saturation, its knee at 246 mA and placed by the data, beat the drift of L
 /// by 44 in Akaike's criterion and predicted the held-out data no better (6.14 mV against 6.08);
