@@ -644,7 +644,7 @@ fn a_small_cl_beside_a_large_c_is_held_to_l_and_cs_fidelity() {
     assert!(lo <= cl_true && cl_true <= hi, "Cl {cl_true:e} outside [{lo:e}, {hi:e}]");
     let lean = ["L", "C"].map(|x| dx["cl_leverage"][x].as_f64().unwrap().abs()).into_iter().fold(0.0, f64::max);
     let fidelity = dx["cl_fidelity"].as_f64().unwrap();
-    assert!(lean > 50.0 && (fidelity / (gap::CIRCUIT_FIDELITY * lean) - 1.0).abs() < 1e-9, "fidelity {fidelity} for a leverage of {lean}");
+    assert!(lean > 50.0 && (fidelity / (gap::CIRCUIT_FIDELITY * lean).exp_m1() - 1.0).abs() < 1e-9, "fidelity {fidelity} for a leverage of {lean}");
     // The interval is no wider than that fidelity asks.
     assert!(hi / lo < (1.0 + fidelity).powi(2) * 1.001, "[{lo:e}, {hi:e}] wider than ±{fidelity}");
 
@@ -816,7 +816,7 @@ fn a_model_that_approximates_a_device_holds_cl_to_its_fidelity_of_l_and_c() {
         assert_eq!(dx["cl_circuit_fidelity"].as_f64().unwrap(), gap::CIRCUIT_FIDELITY_WITH_DEVICES, "{name}");
         let lean = ["L", "C"].map(|x| dx["cl_leverage"][x].as_f64().unwrap().abs()).into_iter().fold(0.0, f64::max);
         let fidelity = dx["cl_fidelity"].as_f64().unwrap();
-        assert!(lean > 10.0 && (fidelity / (gap::CIRCUIT_FIDELITY_WITH_DEVICES * lean) - 1.0).abs() < 1e-9, "{name}: fidelity {fidelity} for a leverage of {lean}");
+        assert!(lean > 10.0 && (fidelity / (gap::CIRCUIT_FIDELITY_WITH_DEVICES * lean).exp_m1() - 1.0).abs() < 1e-9, "{name}: fidelity {fidelity} for a leverage of {lean}");
         assert_final_cl_holds_truth(&dx, &truth, 1.15);
         let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched"]);
         let stdout = String::from_utf8_lossy(&o.stdout);

@@ -161,7 +161,7 @@ fn cl_interval_of_the_final_model_is_tested_and_holds() {
     // leverage on them.
     assert_eq!(dx.cl_circuit_fidelity, gap::CIRCUIT_FIDELITY_WITH_DEVICES);
     let lean = dx.cl_leverage.as_ref().unwrap().iter().filter(|(x, _)| ["L", "C"].contains(&x.as_str())).map(|(_, k)| k.abs()).fold(0.0, f64::max);
-    assert_eq!(fidelity, gap::CL_FIDELITY_WITH_EFFECTS.max(gap::CIRCUIT_FIDELITY_WITH_DEVICES * lean));
+    assert_eq!(fidelity, gap::CL_FIDELITY_WITH_EFFECTS.max((gap::CIRCUIT_FIDELITY_WITH_DEVICES * lean).exp_m1()));
     assert_eq!(fit.cl.ci95, [hull[0].min(fit.cl.estimate / (1.0 + fidelity)), hull[1].max(fit.cl.estimate * (1.0 + fidelity))]);
     let [lo, hi] = fit.cl.ci95;
     assert!(lo <= CL && CL <= hi && hi / lo < 1.04, "right model's interval {hull:?} for {CL:e}");
