@@ -443,6 +443,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // contradicts the measured one: the converter's joint model from its nominal values (see
     // `joint::from_nominal`), where it closes a material share of the gap the path left (or, the
     // path at the floor, matches the measured current where the path's does not).
+    let mut nominal_twin = None;
     if switched
         && opts.nominal == Nominal::Switched
         && let Some(left) = selected.last().map(|e| e.rms_after)
@@ -460,13 +461,19 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
                         other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false))
                     }
             };
-            if let Some(other) = joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline).filter(better) {
-                let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
-                selection_ended = format!(
-                    "the converter's joint model from its nominal values (every effect such a converter carries, fitted together, then pruned), taken instead of the path, which ended with {why} ({selection_ended})"
-                );
-                // No first step led there: no path from one is its twin.
-                (selected, from) = (other, "");
+            match joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline) {
+                Some(joint::FromNominal::Closes(other)) if better(&other) => {
+                    let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
+                    selection_ended = format!(
+                        "the converter's joint model from its nominal values (every effect such a converter carries, fitted together, then pruned), taken instead of the path, which ended with {why} ({selection_ended})"
+                    );
+                    // No first step led there: no path from one is its twin.
+                    (selected, from) = (other, "");
+                }
+                // As good as the path, no better: Cl's interval spans its too, where it puts Cl
+                // elsewhere (below).
+                Some(joint::FromNominal::AsGood(twin)) if misses => nominal_twin = Some(twin),
+                _ => {}
             }
         }
     }
@@ -594,6 +601,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.ci95 = law.spanned(last.cl.ci95);
         }
         if let Some(twin) = twin.or(pruned_twin) {
+            last.cl.ci95 = twin.spanned(last.cl.ci95);
+            last.cl.twin = Some(twin);
+        }
+        // The joint model from the nominal values, as good as the path, where it puts Cl outside
+        // the interval even so (said in its place where it lies farther out than the other).
+        if let Some(twin) = nominal_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
         }
