@@ -605,7 +605,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.twin = Some(twin);
         }
         // The joint model from the nominal values, as good as the path, where it puts Cl outside
-        // the interval even so (said in its place where it lies farther out than the other).
+        // the interval even so (spanned after any other twin, and said in its place).
         if let Some(twin) = nominal_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
