@@ -444,9 +444,12 @@ impl Extension {
 /// effect can do too (at a constant load current a resistance's drop and a probe's offset read
 /// alike, and a gain error's slope with the duty mimics a late reading's). The circuit's
 /// explanation is named first; a calibration still material on top of it is the next step's.
-/// One that explains all the model leaves ([`EXPLAINS_ALL`]) comes first, unless a circuit
-/// effect does too: behind a late ADC a 0.09 % gain error of the reading and a 2.3 nH ESL both
-/// closed the gap to the floor, and the gain, ahead by Akaike's criterion, put Cl 4 % off.
+/// One that explains all the model leaves ([`EXPLAINS_ALL`]) comes first, unless it is a
+/// calibration and a circuit effect explains all too: behind a late ADC a 0.09 % gain error of
+/// the reading and a 2.3 nH ESL both closed the gap to the floor, and the gain, ahead by
+/// Akaike's criterion, put Cl 4 % off. A filter keeps its place: its lag is no level a circuit
+/// effect reads alike (a thesis stage read through τ = T/π is the filter, where C's drift
+/// closed all of the gap too).
 ///
 /// Of two that pass where one is a special case of the other ([`EffectFit::nests`]), the richer
 /// is taken only where it predicts the held-out data better: a harness buck with L 8.8 % low
@@ -457,7 +460,7 @@ pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) 
     let no_better_than_nested = |e: &EffectFit| passing.iter().map(&fit).any(|simpler| e.nests(simpler) && simpler.rms_after <= e.rms_after);
     let kept: Vec<bool> = passing.iter().map(|t| !no_better_than_nested(fit(t))).collect();
     let circuit_explains_all = passing.iter().map(&fit).any(|e| !reads_vout(e.name) && e.closed_of_remaining.is_some_and(|c| c >= EXPLAINS_ALL));
-    let last = |e: &EffectFit| e.last_resort() || (circuit_explains_all && reads_vout(e.name));
+    let last = |e: &EffectFit| e.last_resort() || (circuit_explains_all && e.calibrates_reading());
     passing.into_iter().zip(kept).filter_map(|(t, kept)| kept.then_some(t)).min_by(|a, b| (last(fit(a)), fit(a).aic).partial_cmp(&(last(fit(b)), fit(b).aic)).unwrap_or(std::cmp::Ordering::Equal))
 }
 
