@@ -151,7 +151,7 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
 /// reject, is a model of the converter.
 fn physical<'a>(gone: impl IntoIterator<Item = &'a Group>, cand: &Candidate, nominal: &Params) -> bool {
     gone.into_iter().flat_map(|g| &g.frees).all(|f| {
-        let drift = matches!(f, Free::L | Free::C | Free::Rc).then(|| f.get(&cand.fit.params) / f.get(nominal) - 1.0);
+        let drift = DRIFTING.contains(f).then(|| f.get(&cand.fit.params) / f.get(nominal) - 1.0);
         cand.fit.estimate(f.name()).is_some_and(|e| estimator::validate::identified([e.ci95.0, e.ci95.1])) && drift.is_none_or(|d| d.abs() <= MAX_DRIFT)
     })
 }
@@ -250,8 +250,9 @@ pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectF
     let cand = stack.fit_over_cl(data, n_est).ok()?;
     let left = rms(&residual(&cand));
     if baseline.closed_of_material_gap(gap_left, left).is_none_or(|c| c < MATERIAL_SHARE) {
-        let identified = cand.fit.estimate("Cl").is_some_and(|e| estimator::validate::identified([e.ci95.0, e.ci95.1]));
-        return (left <= gap_left && identified).then(|| FromNominal::AsGood(twin_of(&groups, &cand)));
+        // A twin as the pruning's are: a model of the converter, and one that pins Cl down.
+        let cl_identified = cand.fit.estimate("Cl").is_some_and(|e| estimator::validate::identified([e.ci95.0, e.ci95.1]));
+        return (left <= gap_left && cl_identified && physical(&groups, &cand, nominal)).then(|| FromNominal::AsGood(twin_of(&groups, &cand)));
     }
     settle(data, nominal, stack, cand, groups, Vec::new(), gap_left, n_est, holdout, baseline).map(|(out, _)| FromNominal::Closes(out))
 }
