@@ -451,15 +451,13 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         let misses = baseline.misses_materially(left) == Some(true);
         if misses || contradicts_il(&selected).is_some() {
             // Above the floor it must close a material share of the gap left, with no more
-            // effects; the path at the floor, it must be there too.
+            // effects unless it ends at the floor (each of its effects a finding given the
+            // others: an adequate model before a simpler one that is not); the path at the
+            // floor, it must be there too.
             let gap_left = if misses { left } else { baseline.rms };
             let better = |other: &Vec<EffectFit>| {
-                contradicts_il(other).is_none()
-                    && if misses {
-                        other.len() <= selected.len() && closes_of_left(other, left).is_some()
-                    } else {
-                        other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false))
-                    }
+                let ends_at_floor = other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false));
+                contradicts_il(other).is_none() && if misses { (other.len() <= selected.len() || ends_at_floor) && closes_of_left(other, left).is_some() } else { ends_at_floor }
             };
             match joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline) {
                 Some(joint::FromNominal::Closes(other)) if better(&other) => {
