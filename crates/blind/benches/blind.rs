@@ -66,6 +66,12 @@ fn floor_error_percent(o: &Outcome) -> Option<f64> {
     o.noise_floor.map(|f| 100.0 * (f / o.truth.measurement_noise() - 1.0))
 }
 
+/// A Cl interval [F] in µF to `digits` decimals, or "(not identified)" where it pins nothing
+/// down (no bound of 10¹⁵¹ µF printed as a figure).
+fn interval_uf([lo, hi]: [f64; 2], digits: usize) -> String {
+    if estimator::validate::identified([lo, hi]) { format!("[{:.digits$}, {:.digits$}]", lo * 1e6, hi * 1e6) } else { "(not identified)".to_string() }
+}
+
 /// One line per dataset on stderr.
 fn progress(index: u64, o: &Outcome) {
     let floor = floor_error_percent(o).map_or_else(|| "no model-free floor".to_string(), |e| format!("floor {e:+.0} %"));
@@ -76,7 +82,7 @@ fn progress(index: u64, o: &Outcome) {
             (_, false) => " NOT IDENTIFIED",
             _ => " MISSED",
         };
-        format!(", Cl {:.4} [{:.4}, {:.4}] µF (true {:.4}{inside})", cl * 1e6, lo * 1e6, hi * 1e6, o.true_cl * 1e6)
+        format!(", Cl {:.4} {} µF (true {:.4}{inside})", cl * 1e6, interval_uf([lo, hi], 4), o.true_cl * 1e6)
     });
     eprintln!("{:>3} {:10} {:32} → {:28} {:.2} s, {floor}{check}{cl}", index, o.source, o.truth.label(), o.said(), o.seconds);
 }
@@ -150,13 +156,12 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
     for o in part.iter().filter(with_effect).filter(|o| o.cl_in_ci95() == Some(false)) {
         let (cl, [lo, hi]) = o.cl.unwrap_or((f64::NAN, [f64::NAN; 2]));
         println!(
-            "- {}: named, true Cl {:.4} µF {} the CI95 {:.4} [{:.4}, {:.4}] µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
+            "- {}: named, true Cl {:.4} µF {} the CI95 {:.4} {} µF ({:+.2} %, {:.1} half-widths; io {:.2} A; {})",
             o.truth.label(),
             o.true_cl * 1e6,
             if estimator::validate::identified([lo, hi]) { "outside" } else { "not identified by" },
             cl * 1e6,
-            lo * 1e6,
-            hi * 1e6,
+            interval_uf([lo, hi], 4),
             100.0 * (cl / o.true_cl - 1.0),
             (cl - o.true_cl).abs() / (0.5 * (hi - lo)),
             o.truth.io,
@@ -169,7 +174,7 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
             [] => ", no gap above the noise".to_string(),
             below => format!(", no gap above the noise from {}", below.join(" or ")),
         };
-        let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} [{:.3}, {:.3}] µF", cl * 1e6, lo * 1e6, hi * 1e6));
+        let final_cl = o.final_cl.map_or_else(String::new, |(cl, [lo, hi])| format!(", final Cl {:.3} {} µF", cl * 1e6, interval_uf([lo, hi], 3)));
         println!("- {}: said {}{limit} (Cl {:.2} µF{final_cl}, io {:.2} A; {})", o.truth.label(), o.said(), o.true_cl * 1e6, o.truth.io, settings(o));
     }
 }
