@@ -823,6 +823,25 @@ fn assert_joint_model_from_nominal_values_as_drawn(name: &str, ron_ls: bool) {
     assert_final_cl_holds_truth(&dx, &truth, 1.6);
 }
 
+/// An independent-harness buck (blind bench, seed 3939, dataset 12: C 14.7 % low, switches of
+/// 14.7 and 13.9 mΩ, read 144 ns late, 25.2 µF of load at 3.6 A). A 10 mΩ load ESR stood in for
+/// the late reading: with C's drift and the switches it left vout at the floor, Cl 24.30 [24.06,
+/// 24.54] µF for 25.19, while il still missed by 0.29 A. The late reading il shows displaced the
+/// ESR, and the swap, judged on vout, closed no material share of a gap already within the
+/// floor. Judged by il, as a late step is, it replaces the stand-in.
+#[test]
+fn a_late_reading_il_shows_replaces_a_stand_in_that_left_vout_at_the_floor() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "drift-switches-3939-12"));
+    let mut names = selected_names(&dx);
+    names.sort_unstable();
+    assert_eq!(names, ["param_drift", "sample_delay", "switch_resistance"], "{}", dx["selection_ended"]);
+    let selected = dx["selected"].as_array().unwrap();
+    let param = |key: &str| selected.iter().find_map(|e| e["params"].get(key)).unwrap_or_else(|| panic!("no {key} in {names:?}"));
+    assert_within("C [F]", param("C"), &truth["settings"]["C"], 0.01);
+    assert_within("ADC delay [s]", param("sample_delay"), &truth["settings"]["adc_delay"], 0.05);
+    assert_final_cl_holds_truth(&dx, &truth, 1.1);
+}
+
 /// An independent-harness buck (blind bench, seed 3838, dataset 12: L 12.5 % low, switches of
 /// 37.6 and 6.2 mΩ, read 111 ns late, 2.29 µF of load at 2.9 A). Its path took the switches'
 /// resistance as one series resistance, which the low side's own cannot refine, and L, and

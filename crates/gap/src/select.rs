@@ -980,9 +980,11 @@ pub(crate) fn forward(
         let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.lock().map(|mut d| std::mem::take(&mut *d)).unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
         let swap_fits = |tried: &[Swap]| swaps(data, nominal, &selected, &stack, tried, &against, switched_data, io_mean, n_est, holdout, baseline);
         // A late reading il shows that displaces an effect already taken (a probe's offset
-        // standing in for a filter's lag) replaces it first, as it would have been taken first.
+        // standing in for a filter's lag) replaces it first, as it would have been taken first:
+        // judged by il, as a late step is, whatever it does on vout (a load ESR that stood in for
+        // the instant left vout at the floor, where the swap can close no material share of it).
         let mut late_fits = if swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) { swap_fits(&late) } else { Vec::new() };
-        let late_swap = best_material(late_fits.iter().enumerate(), |(_, s)| &s.1.0).filter(|(_, s)| s.1.0.late_in_il()).map(|(i, _)| i);
+        let late_swap = late_fits.iter().enumerate().filter(|(_, s)| s.1.0.late_in_il()).min_by(|a, b| a.1.1.0.aic.total_cmp(&b.1.1.0.aic)).map(|(i, _)| i);
         let late_swap = late_swap.map(|i| late_fits.swap_remove(i));
         // Else the late reading il shows, or the best material step; nothing adding, an effect
         // that replaced one already taken: that swap, when it is a finding (the late ones' fits
