@@ -67,6 +67,12 @@ fn selected_names(dx: &serde_json::Value) -> Vec<&str> {
     dx["selected"].as_array().unwrap().iter().map(|e| e["name"].as_str().unwrap()).collect()
 }
 
+/// The fitted value of the parameter `key` in the diagnosis `dx`, from the first selected
+/// effect that holds it.
+fn selected_param<'a>(dx: &'a serde_json::Value, key: &str) -> &'a serde_json::Value {
+    dx["selected"].as_array().unwrap().iter().find_map(|e| e["params"].get(key)).unwrap_or_else(|| panic!("no {key} in {:?}", selected_names(dx)))
+}
+
 /// Asserts that a fitted `value` of `what` lies within a share `rel` of its `truth`.
 fn assert_within(what: &str, value: &serde_json::Value, truth: &serde_json::Value, rel: f64) {
     let (v, t) = (value.as_f64().unwrap(), truth.as_f64().unwrap());
@@ -811,8 +817,7 @@ fn assert_joint_model_from_nominal_values_as_drawn(name: &str, ron_ls: bool) {
     assert!(ended.starts_with("the converter's joint model from its nominal values"), "{name}: {ended}");
     let names = selected_names(&dx);
     assert!(names.iter().all(|n| ["param_drift", "switch_resistance", "unequal_switches", "sample_delay"].contains(n)), "{name}: {names:?}");
-    let selected = dx["selected"].as_array().unwrap();
-    let param = |key: &str| selected.iter().find_map(|e| e["params"].get(key)).unwrap_or_else(|| panic!("{name}: no {key} in {names:?}"));
+    let param = |key: &str| selected_param(&dx, key);
     assert_within("L [H]", param("L"), &truth["settings"]["L"], 0.01);
     assert_within("high side [Ω]", param("switch_resistance"), &truth["settings"]["ron_hs"], 0.02);
     if ron_ls {
@@ -835,10 +840,8 @@ fn a_late_reading_il_shows_replaces_a_stand_in_that_left_vout_at_the_floor() {
     let mut names = selected_names(&dx);
     names.sort_unstable();
     assert_eq!(names, ["param_drift", "sample_delay", "switch_resistance"], "{}", dx["selection_ended"]);
-    let selected = dx["selected"].as_array().unwrap();
-    let param = |key: &str| selected.iter().find_map(|e| e["params"].get(key)).unwrap_or_else(|| panic!("no {key} in {names:?}"));
-    assert_within("C [F]", param("C"), &truth["settings"]["C"], 0.01);
-    assert_within("ADC delay [s]", param("sample_delay"), &truth["settings"]["adc_delay"], 0.05);
+    assert_within("C [F]", selected_param(&dx, "C"), &truth["settings"]["C"], 0.01);
+    assert_within("ADC delay [s]", selected_param(&dx, "sample_delay"), &truth["settings"]["adc_delay"], 0.05);
     assert_final_cl_holds_truth(&dx, &truth, 1.1);
 }
 
