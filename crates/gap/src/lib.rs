@@ -42,6 +42,16 @@ pub use estimator::noise::{noise_floor, noise_floor_estimate};
 pub use locate::{Band, FloorSource, Group, Where};
 pub use tested::{CIRCUIT_FIDELITY, CIRCUIT_FIDELITY_WITH_DEVICES, CL_FIDELITY, CL_FIDELITY_WITH_EFFECTS, TestedCl, tested_cl};
 
+/// Whether two sequences hold the same effects, in whatever order.
+fn same_model(a: &[EffectFit], b: &[EffectFit]) -> bool {
+    let labels = |s: &[EffectFit]| {
+        let mut labels: Vec<String> = s.iter().map(EffectFit::label).collect();
+        labels.sort();
+        labels
+    };
+    labels(a) == labels(b)
+}
+
 /// How much smaller than the joint refit's held-out residual a going-on sequence's must be to
 /// be taken instead (the joint model has fewer effects, each judged given all the others).
 const GOING_ON_MARGIN: f64 = 1.05;
@@ -350,7 +360,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // going on leaves clearly less.
         let settled = joint.is_some() && baseline.misses_materially(left(&selected)) == Some(false);
         let (more, more_ended) = if full && !settled { forward(&greedy, select::MAX_EFFECTS_GOING_ON) } else { (Vec::new(), String::new()) };
-        let going_on = more.len() > greedy.len() && (joint.is_none() || left(&more) * GOING_ON_MARGIN < left(&selected));
+        // Going on adds effects, or swaps one out (a late reading il shows replacing its
+        // stand-in keeps the count: a harness buck's load ESR stood in for the instant at the
+        // floor, Cl 7 % off).
+        let went_on = more.len() > greedy.len() || (!more.is_empty() && !same_model(&more, &greedy));
+        let going_on = went_on && (joint.is_none() || left(&more) * GOING_ON_MARGIN < left(&selected));
         match joint {
             _ if going_on => (selected, ended) = (more, format!("{ended}; it went on: {more_ended}")),
             Some(joint) => ended = format!("{ended}; then {joint}"),
@@ -491,12 +505,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         let twin = twin_of(&other)?;
         let this = selected.last()?;
         // The same effects by another path are the same model.
-        let sorted = |s: &[EffectFit]| {
-            let mut labels: Vec<String> = s.iter().map(EffectFit::label).collect();
-            labels.sort();
-            labels
-        };
-        if sorted(&other) == sorted(&selected) {
+        if same_model(&other, &selected) {
             return None;
         }
         if other.len() <= selected.len() && twin.rms_after < this.rms_after {
