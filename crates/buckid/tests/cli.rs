@@ -683,6 +683,21 @@ fn a_fitted_l_spans_cl_with_the_current_probe_exact() {
     assert!(estimate < cl_true && cl_true < exact && exact <= hi, "Cl {estimate:e}, with the probe exact {exact:e}, interval up to {hi:e}");
 }
 
+/// The same board's path (four effects, then their joint refit, pruned) ended 1.60 mV held out,
+/// 1.2 floors, materially above the floor; the converter's joint model from the nominal values
+/// ends at the floor (1.43 mV) with seven effects, each a finding given the others: an adequate
+/// model is taken before one that is not, and it names the late reading and the low side's own
+/// too.
+#[test]
+fn a_joint_model_from_the_nominal_values_at_the_floor_replaces_a_simpler_path_above_it() {
+    let (dx, truth) = diagnose_third("pol-several-7701");
+    let ended = dx["selection_ended"].as_str().unwrap();
+    assert!(ended.starts_with("the converter's joint model from its nominal values") && ended.contains("4 effects selected"), "{ended}");
+    let names = selected_names(&dx);
+    assert!(names.len() > 4 && names.contains(&"sample_delay") && names.contains(&"unequal_switches"), "{names:?}");
+    assert_final_cl_holds_truth(&dx, &truth, 10.0);
+}
+
 /// A 24 V lab buck whose 260 µF electrolytic has 19 nH of ESL, 1.75 µF of load at 0.22 A, read
 /// 359 ns late (third generator, seed 10402). The late reading il shows came first; on top of
 /// it the screen ranked the ESL sixth on its 1 nH probe, and a −0.011 % gain of the vout
