@@ -221,7 +221,7 @@ impl Stack {
             out.push(self.freeing("unequal_switches", Free::LowSideRatio, &LOW_SIDE_RATIO_STARTS, p.low_side_ratio * (1.0 + PROBE_DRIFT)));
         }
         // The switches' resistance taken in series with L: split between their intervals.
-        let in_series = self.switched && has("switch_resistance") && self.free.contains(&Free::RL) && !self.free.contains(&Free::SwitchResistance);
+        let in_series = self.switched && has("switch_resistance") && self.free.contains(&Free::RL) && !self.free.contains(&Free::SwitchResistance) && p.rl > nominal.rl;
         if in_series {
             out.push(self.split_series_resistance(nominal));
         }
@@ -1235,5 +1235,36 @@ mod tests {
         let mut not_finding = alone.clone();
         not_finding[0].finding = false;
         assert_eq!(proven_alone(&mut offered(), &not_finding, 4.25e-3, &baseline).map(|x| x.name), Some("esl"));
+    }
+
+    /// The switches' resistance taken in series with L is offered split between the intervals it
+    /// conducts in, started where it is the model so far: the diode buck's split (the switch's
+    /// own and the diode's slope) and the synchronous buck's (the switches' own, the low side's
+    /// ratio 1) simulate as the resistance in series did, to rounding. Not where `RL` is not
+    /// above the nominal's.
+    #[test]
+    fn a_series_resistance_split_starts_as_the_model_so_far() {
+        use buck_model::Mode;
+        use estimator::experiment::{Experiment, ModelPlant, run};
+        use estimator::simulated::simulate_outputs;
+        let nominal = Params::default();
+        let exp = Experiment { samples: 400, io: 2.0, ..Experiment::default() };
+        for (effects, diode_drop, refinement) in [(vec!["diode_drop", "switch_resistance"], 0.4, Free::DiodeResistance), (vec!["switch_resistance"], 0.0, Free::LowSideRatio)] {
+            let params = Params { rl: nominal.rl + 0.03, diode_drop, diode_resistance: 0.01, cl: 10e-6, ..nominal };
+            let record = run(&mut ModelPlant::new(params, Mode::Switched), &exp).unwrap();
+            let stack = Stack { params, free: vec![Free::Cl, Free::RL], delay: 0, effects: effects.clone(), switched: true };
+            let splits = |s: &Stack| s.extensions(&nominal, true, 2.0).into_iter().filter(|x| x.stack.free.contains(&Free::SwitchResistance) && !x.stack.free.contains(&Free::RL)).collect::<Vec<_>>();
+            let [split] = splits(&stack).try_into().unwrap_or_else(|s: Vec<Extension>| panic!("{effects:?}: {} splits", s.len()));
+            assert_eq!(split.added(), [refinement], "{effects:?}");
+            assert_eq!(split.stack.free, [Free::Cl, Free::SwitchResistance, refinement]);
+            let (vout, il) = simulate_outputs(&stack.params, &record, record.vout[0]).unwrap();
+            let (vout_split, il_split) = simulate_outputs(&split.starts[0], &record, record.vout[0]).unwrap();
+            let most = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            assert!(most(&vout, &vout_split) < 1e-9 && most(&il, &il_split) < 1e-9, "{effects:?}: {} V, {} A", most(&vout, &vout_split), most(&il, &il_split));
+            // Nor is the diode's slope offered on top of the series resistance: the split holds it.
+            assert!(!stack.extensions(&nominal, true, 2.0).iter().any(|x| x.name == "diode_resistance" && x.stack.free.contains(&Free::RL)));
+            let below = Stack { params: Params { rl: nominal.rl, ..params }, ..stack };
+            assert!(splits(&below).is_empty(), "{effects:?}");
+        }
     }
 }
