@@ -891,7 +891,7 @@ fn a_series_resistance_splits_into_the_high_sides_and_the_low_sides() {
     let name = "drift-switches-3838-12";
     let (dx, truth) = diagnose_generated(generated_fixture("harness", name));
     let ended = dx["selection_ended"].as_str().unwrap();
-    assert!(ended.contains("in series split into the switches' own and, apart, the low side's (unequal_switches)"), "{ended}");
+    assert!(ended.contains("switch_resistance, taken in series with L, split between the high side and the low side: unequal_switches"), "{ended}");
     assert_switches_and_instant_as_drawn(name, &dx, &truth, true);
 }
 
@@ -907,7 +907,7 @@ fn a_series_resistance_splits_into_the_switchs_and_the_diodes() {
     let names = selected_names(&dx);
     assert!(["diode_drop", "switch_resistance", "diode_resistance"].iter().all(|n| names.contains(n)), "{names:?}");
     let ended = dx["selection_ended"].as_str().unwrap();
-    assert!(ended.contains("in series split into the switches' own and, apart, the diode's (diode_resistance)"), "{ended}");
+    assert!(ended.contains("switch_resistance, taken in series with L, split between the switch (on-time) and the diode (off-time): diode_resistance"), "{ended}");
     assert!(dx["selected"].as_array().unwrap().iter().all(|e| e["params"].get("series_resistance").is_none()), "{names:?}");
     assert_within("high side [Ω]", selected_param(&dx, "switch_resistance"), &truth["settings"]["ron_hs"], 0.1);
     let slope = selected_param(&dx, "diode_resistance").as_f64().unwrap();

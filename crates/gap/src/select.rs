@@ -1075,8 +1075,8 @@ pub(crate) fn forward(
         // next step may offer depends on it: a diode's refinements, no second load ESR).
         stack.effects.push(fit.name);
         if let Some(resistance) = in_own_form(&mut selected, &stack) {
-            let apart = if fit.name == "diode_resistance" { "the diode's" } else { "the low side's" };
-            notes.push(format!("{resistance} in series split into the switches' own and, apart, {apart} ({})", fit.label()));
+            let (on, off) = if fit.name == "diode_resistance" { ("the switch (on-time)", "the diode (off-time)") } else { ("the high side", "the low side") };
+            notes.push(format!("{resistance}, taken in series with L, split between {on} and {off}: {}", fit.label()));
         }
         selected.push(fit);
         at_final_values(&mut selected, &cand, nominal);
