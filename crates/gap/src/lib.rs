@@ -363,7 +363,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // Going on adds effects, or swaps one out (a late reading il shows replacing its
         // stand-in keeps the count: a harness buck's load ESR stood in for the instant at the
         // floor, Cl 7 % off).
-        let went_on = more.len() > greedy.len() || (!more.is_empty() && !same_model(&more, &greedy));
+        let went_on = !more.is_empty() && !same_model(&more, &greedy);
         let going_on = went_on && (joint.is_none() || left(&more) * GOING_ON_MARGIN < left(&selected));
         match joint {
             _ if going_on => (selected, ended) = (more, format!("{ended}; it went on: {more_ended}")),

@@ -289,24 +289,20 @@ impl Stack {
     /// series for both, on which the diode's slope resistance could only grow the off-time's
     /// and ran to zero; split, 3.7 mV left held out fell to 3.2 with 35 and 26 mΩ.
     fn split_series_resistance(&self, nominal: &Params) -> Extension {
-        let mut stack = self.clone();
+        let mut own = self.clone();
         let extra = self.params.rl - nominal.rl;
-        stack.params.rl = nominal.rl;
-        stack.params.switch_resistance = extra;
-        for f in stack.free.iter_mut().filter(|f| **f == Free::RL) {
+        own.params.rl = nominal.rl;
+        own.params.switch_resistance = extra;
+        for f in own.free.iter_mut().filter(|f| **f == Free::RL) {
             *f = Free::SwitchResistance;
         }
-        let (name, f, value, probe) = if self.params.asynchronous() {
+        if self.params.asynchronous() {
             let r = self.params.diode_resistance + extra;
-            ("diode_resistance", Free::DiodeResistance, r, r + PROBE_RESISTANCE)
+            own.freeing("diode_resistance", Free::DiodeResistance, &[r], r + PROBE_RESISTANCE)
         } else {
-            ("unequal_switches", Free::LowSideRatio, self.params.low_side_ratio, self.params.low_side_ratio * (1.0 + PROBE_DRIFT))
-        };
-        f.set(&mut stack.params, value);
-        stack.free.push(f);
-        let mut probe_params = stack.params;
-        f.set(&mut probe_params, probe);
-        Extension { name, starts: vec![stack.params], probe: probe_params, stack, extra: 1, not_nested: false }
+            let ratio = self.params.low_side_ratio;
+            own.freeing("unequal_switches", Free::LowSideRatio, &[ratio], ratio * (1.0 + PROBE_DRIFT))
+        }
     }
 
     /// The simulated effect `e` added to this model.
