@@ -786,7 +786,7 @@ fn on_bound(name: &str, value: f64) -> bool {
 /// bound. A fit creeping along such a slope stops wherever its gain falls below the noise: a
 /// load capacitance at 1.1 nF against the range's 1 nF with an interval from zero to infinity,
 /// a nominal whose Cl ran up to 2.8 mF.
-fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
+pub(crate) fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
     on_bound("Cl", estimate) || buck_model::variables::real_range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
 }
 

@@ -393,9 +393,13 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // The material share of the gap a path left (`left`, held-out RMS) that another path closes.
     let closes_of_left = |other: &[EffectFit], left: f64| other.last().and_then(|e| baseline.closed_of_material_gap(left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
     let first = first.filter(|_| late_in_il.is_none() && ripple.is_none());
-    let mut tried: Vec<&str> = first.map(|f| vec![f.name]).unwrap_or_default();
+    // A late reading il shows, taken first, is a first step too: the circuit's findings are its
+    // alternatives where its path stops materially above the floor (its il calibration, the
+    // probe's gain and zero, can stand in for what an inductance's drift does to il).
+    let late_first = late_in_il.filter(|_| first.is_none());
+    let mut tried: Vec<&str> = first.or(late_first).map(|f| vec![f.name]).unwrap_or_default();
     // The first step of the path taken.
-    let mut from = first.map_or("", |f| f.name);
+    let mut from = first.or(late_first).map_or("", |f| f.name);
     if let (Some(first), Some(rms_left)) = (first, rms_left)
         && baseline.misses_materially(rms_left) == Some(true)
         && let Some((rival, kind)) = select::rival(&effects, first)
@@ -415,14 +419,15 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     }
     // A path stuck far above the floor (see `select::STUCK_FLOORS`), or stopped materially above
     // it with a model whose inductor current contradicts the measured one (its impedance is not
-    // the converter's, see `CurrentMisfit`: a stand-in took the first step): the paths from the
-    // next findings of the first step, one at a time while the best so far is still stuck.
+    // the converter's, see `CurrentMisfit`: a stand-in took the first step) or from a late
+    // reading: the paths from the next findings of the first step, one at a time while the best
+    // so far is still stuck.
     let contradicts_il = |s: &[EffectFit]| -> Option<CurrentMisfit> {
         let last = s.last().filter(|_| switched)?;
         let stack = select::Stack::of(&s.iter().collect::<Vec<_>>(), nominal, last.cl.estimate, true).ok()?;
         CurrentMisfit::of(&stack.data(data), &stack.params, n_est).filter(CurrentMisfit::contradicts)
     };
-    let stuck = |s: &[EffectFit], floor: f64| -> Option<(f64, String)> {
+    let stuck = |s: &[EffectFit], floor: f64, late: bool| -> Option<(f64, String)> {
         let rms = s.last()?.rms_after;
         if rms > select::STUCK_FLOORS * floor {
             return Some((rms, String::new()));
@@ -430,14 +435,17 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         if baseline.misses_materially(rms) != Some(true) {
             return None;
         }
+        if late {
+            return Some((rms, String::new()));
+        }
         let misfit = contradicts_il(s)?;
         Some((rms, format!(", its model's inductor current matching the measured one only through a probe gain of ×{:.2}", misfit.probe_gain)))
     };
-    if let (Some(_), Some(floor)) = (first, baseline.floor) {
+    if let (Some(_), Some(floor)) = (first.or(late_first), baseline.floor) {
         // The path taken's own judgement, made once per path (its il check is a simulation).
         let mut stuck_at = None;
         for other_first in select::alternatives(&effects, &tried) {
-            let Some((rms_left, why)) = stuck_at.get_or_insert_with(|| stuck(&selected, floor)).clone() else { break };
+            let Some((rms_left, why)) = stuck_at.get_or_insert_with(|| stuck(&selected, floor, late_first.is_some_and(|l| l.name == from))).clone() else { break };
             if selected.len() >= select::MAX_EFFECTS {
                 break;
             }
@@ -493,7 +501,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // (see `select::twin`). Where it ends at the floor too, Cl's interval spans both; where it
     // also leaves less held out with no more effects, it is taken instead.
     let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
-    let taken = effects.iter().find(|e| e.name == from);
+    // (A circuit's first step: a late reading il shows has none.)
+    let taken = effects.iter().find(|e| e.name == from).filter(|_| late_first.is_none_or(|l| l.name != from));
     // (Not one whose inductor current contradicts the measured one: the data tells it apart.)
     let twin_of = |s: &[EffectFit]| {
         let end = s.last().filter(at_floor).filter(|e| estimator::validate::identified(e.cl.ci95)).filter(|_| contradicts_il(s).is_none())?;
