@@ -154,7 +154,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.label(), closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
     }
     println!("selection   {}", dx.selection_ended);
-    println!("verdict     {}", dx.verdict);
+    println!("verdict     {}", dx.verdict_text());
     if let Some(regime) = dx.regime() {
         println!("regime      {regime}");
     }

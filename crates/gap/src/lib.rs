@@ -200,6 +200,11 @@ pub struct Diagnosis {
     pub selection_ended: String,
     /// The first selected effect (the single effect that explains most), or `none`.
     pub verdict: String,
+    /// No effect is selected although the nominal misses materially above the noise floor (and
+    /// no drift within tolerance explains it): the gap is real and no candidate explains it, a
+    /// mechanism they lack. The verdict `none` then says "no candidate", not "no gap".
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub unexplained: bool,
     /// Where the final model is a diode buck: the share of periods it starts in DCM, the
     /// diode having blocked before the period ended (`il` at zero), as it runs on the data's
     /// inputs. DCM is in the model's diode by construction, so it is reported here, not as an
@@ -247,6 +252,15 @@ impl Diagnosis {
             }
         };
         (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some((self.cl_fidelity, self.cl_circuit_fidelity))))
+    }
+
+    /// The verdict in words: the first selected effect, `none`, or, where the gap is
+    /// [`Diagnosis::unexplained`], `none` said as no candidate's.
+    pub fn verdict_text(&self) -> String {
+        if self.unexplained {
+            return format!("{} of the candidates: the nominal misses materially and none explains it (a mechanism they lack)", self.verdict);
+        }
+        self.verdict.clone()
     }
 
     /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
@@ -555,6 +569,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         tested = final_test(&selected);
     }
     let verdict = selected.first().map_or_else(|| "none".to_string(), |e| e.name.to_string());
+    let unexplained = selected.is_empty() && first.is_none() && baseline.misses_materially(baseline.rms) == Some(true);
     let base_cl = base.fit.estimate("Cl").map_or([f64::NAN; 2], |e| [e.ci95.0, e.ci95.1]);
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
@@ -674,6 +689,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         selected,
         selection_ended,
         verdict,
+        unexplained,
         dcm_share,
         cl_leverage,
         cl_at_fidelity,

@@ -161,7 +161,7 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     let (cl, ci95, test) = dx.final_cl();
     page.html(&format!(
         "<p class=\"result\"><b>Verdict: {}</b>{}. Cl of the final model: <b>{}</b>; {}.</p>",
-        esc(&dx.verdict),
+        esc(&dx.verdict_text()),
         if dx.selected.len() > 1 { format!(" (selected in turn: {})", labels.join(", ")) } else { String::new() },
         esc(&with_ci(cl, Some(ci95), "F")),
         esc(&si_text(&test)),
