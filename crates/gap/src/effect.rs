@@ -786,8 +786,13 @@ fn on_bound(name: &str, value: f64) -> bool {
 /// bound. A fit creeping along such a slope stops wherever its gain falls below the noise: a
 /// load capacitance at 1.1 nF against the range's 1 nF with an interval from zero to infinity,
 /// a nominal whose Cl ran up to 2.8 mF.
-pub(crate) fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
+fn cl_on_bound(estimate: f64, [lo, hi]: [f64; 2]) -> bool {
     on_bound("Cl", estimate) || buck_model::variables::real_range("Cl").is_some_and(|(min, max)| !(lo > min && hi < max))
+}
+
+/// Whether the fit `c` ran Cl onto a bound of its range ([`cl_on_bound`]).
+pub(crate) fn cl_ran_onto_bound(c: &Candidate) -> bool {
+    c.fit.estimate("Cl").is_some_and(|e| cl_on_bound(e.value, [e.ci95.0, e.ci95.1]))
 }
 
 /// Share of the gap left above the floor [%] that a reading's effect must close to be named
@@ -1467,8 +1472,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let material = closed_of_remaining.is_some_and(|c| c >= MATERIAL_SHARE);
     let of_rl = series_resistance(name, &t.params).map(|r| r / baseline.rl);
     let within_tolerance = t.drift.or(of_rl).is_some_and(|d| d.abs() <= baseline.tolerance);
-    let cl_on = |c: &Candidate| c.fit.estimate("Cl").is_some_and(|e| cl_on_bound(e.value, [e.ci95.0, e.ci95.1]));
-    let cl_on_bound = cl_on(&t.cand);
+    let cl_on_bound = cl_ran_onto_bound(&t.cand);
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
         || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range))
@@ -1496,7 +1500,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         within_tolerance,
         at_bound,
         cl_on_bound,
-        takes_cl: cl_on_bound && !cl_on(against),
+        takes_cl: cl_on_bound && !cl_ran_onto_bound(against),
         finding: significant && material && !within_tolerance && !at_bound,
         ruled_out_above: None,
         il_closed_percent: None,

@@ -411,9 +411,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // alternatives where its path stops materially above the floor (its il calibration, the
     // probe's gain and zero, can stand in for what an inductance's drift does to il).
     let late_first = late_in_il.filter(|_| first.is_none());
-    let mut tried: Vec<&str> = first.or(late_first).map(|f| vec![f.name]).unwrap_or_default();
+    let first_step = first.or(late_first);
+    // Whether the path from `from` is the late reading's.
+    let from_late = |from: &str| late_first.is_some_and(|l| l.name == from);
+    let mut tried: Vec<&str> = first_step.map(|f| vec![f.name]).unwrap_or_default();
     // The first step of the path taken.
-    let mut from = first.or(late_first).map_or("", |f| f.name);
+    let mut from = first_step.map_or("", |f| f.name);
     if let (Some(first), Some(rms_left)) = (first, rms_left)
         && baseline.misses_materially(rms_left) == Some(true)
         && let Some((rival, kind)) = select::rival(&effects, first)
@@ -455,11 +458,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         let misfit = contradicts_il(s)?;
         Some((rms, format!(", its model's inductor current matching the measured one only through a probe gain of ×{:.2}", misfit.probe_gain)))
     };
-    if let (Some(_), Some(floor)) = (first.or(late_first), baseline.floor) {
+    if let (Some(_), Some(floor)) = (first_step, baseline.floor) {
         // The path taken's own judgement, made once per path (its il check is a simulation).
         let mut stuck_at = None;
         for other_first in select::alternatives(&effects, &tried) {
-            let Some((rms_left, why)) = stuck_at.get_or_insert_with(|| stuck(&selected, floor, late_first.is_some_and(|l| l.name == from))).clone() else { break };
+            let Some((rms_left, why)) = stuck_at.get_or_insert_with(|| stuck(&selected, floor, from_late(from))).clone() else { break };
             if selected.len() >= select::MAX_EFFECTS {
                 break;
             }
@@ -516,7 +519,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // also leaves less held out with no more effects, it is taken instead.
     let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
     // (A circuit's first step: a late reading il shows has none.)
-    let taken = effects.iter().find(|e| e.name == from).filter(|_| late_first.is_none_or(|l| l.name != from));
+    let taken = effects.iter().find(|e| e.name == from).filter(|_| !from_late(from));
     // (Not one whose inductor current contradicts the measured one: the data tells it apart.)
     let twin_of = |s: &[EffectFit]| {
         let end = s.last().filter(at_floor).filter(|e| estimator::validate::identified(e.cl.ci95)).filter(|_| contradicts_il(s).is_none())?;

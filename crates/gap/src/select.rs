@@ -27,7 +27,7 @@ use rayon::prelude::*;
 
 use crate::effect::{
     Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading,
-    cl_on_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -1101,8 +1101,7 @@ pub(crate) fn forward(
 /// and Cl 20.75 µF left 2.30 mV, the current at its floor.
 fn better_fit(refit: &Candidate, last: &EffectFit) -> bool {
     let identified = refit.fit.estimates.iter().all(|e| estimator::validate::identified([e.ci95.0, e.ci95.1]));
-    let cl_inside = refit.fit.estimate("Cl").is_some_and(|e| !cl_on_bound(e.value, [e.ci95.0, e.ci95.1]));
-    rms(&residual(refit)) < last.rms_after && identified && cl_inside
+    rms(&residual(refit)) < last.rms_after && identified && !cl_ran_onto_bound(refit)
 }
 
 /// The extension of `offered` whose effect, fitted alone from the nominal (`alone`, the first
