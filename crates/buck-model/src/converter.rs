@@ -465,6 +465,7 @@ impl Converter {
             VarId::Rload => p.rload,
             VarId::DiodeResistance => p.diode_resistance,
             VarId::SwitchNodeCapacitance => p.switch_node_capacitance,
+            VarId::SwitchNodeDamping => p.switch_node_damping,
             VarId::LowSideRatio => p.low_side_ratio,
         }
     }
@@ -496,6 +497,7 @@ impl Converter {
                     VarId::DiodeDrop => p.diode_drop = value,
                     VarId::DiodeResistance => p.diode_resistance = value,
                     VarId::SwitchNodeCapacitance => p.switch_node_capacitance = value,
+                    VarId::SwitchNodeDamping => p.switch_node_damping = value,
                     VarId::LowSideRatio => p.low_side_ratio = value,
                     VarId::DeadTime => p.dead_time = value,
                     VarId::LoadEsr => p.load_esr = value,
@@ -630,7 +632,8 @@ impl Converter {
     /// there is one (see [`Params::switch_node_capacitance`]): from the rail a switch held it
     /// at, the current at the edge `i0` (held: the slew lasts nanoseconds) drives the node
     /// toward the diode clamp on its side (il > 0 down to `−Vf`, il < 0 up to `vin + V_bd`) in
-    /// `Csw·|ΔV|/|i0|`, and the clamp holds it from there; a turn-on that comes first completes
+    /// `Csw·|ΔV|/|i0|` (after a jump of `Rd·|i0|` behind a damping resistance `Rd`, see
+    /// [`Params::switch_node_damping`]), and the clamp holds it from there; a turn-on that comes first completes
     /// the swing (hard switching). The window is the dead interval, or the first
     /// [`SLEW_WINDOW`] of a diode buck's off-time, and the node is held at its mean over it:
     /// the same volt-seconds, pieces of fixed length (their transitions stay cached), and il at
@@ -646,10 +649,17 @@ impl Converter {
             return None;
         }
         let target = if i0 > 0.0 { self.low_clamp() } else { self.high_clamp() };
-        let transit = p.switch_node_capacitance * (target - v0).abs() / i0.abs();
+        // Behind a damping resistance the node jumps by `Rd·|i0|` first: the capacitance then
+        // swings what is left of the way (nothing where the jump reaches the clamp).
+        let swing = (target - v0).abs() - p.switch_node_damping * i0.abs();
+        if swing <= 0.0 {
+            return None;
+        }
+        let v1 = target - swing * (target - v0).signum();
+        let transit = p.switch_node_capacitance * swing / i0.abs();
         let window = if p.asynchronous() { (SLEW_WINDOW * period).min(end - self.phase) } else { end - self.phase };
         // The ramp's volt-seconds within the window, then the clamp's.
-        let ramp = if transit <= window { 0.5 * (v0 + target) * transit } else { (v0 + 0.5 * (target - v0) * window / transit) * window };
+        let ramp = if transit <= window { 0.5 * (v1 + target) * transit } else { (v1 + 0.5 * (target - v1) * window / transit) * window };
         let mean = (ramp + target * (window - transit).max(0.0)) / window;
         Some((self.phase + window, mean))
     }

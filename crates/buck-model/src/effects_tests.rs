@@ -644,6 +644,7 @@ fn effect_parameters_round_trip_through_the_table() {
         ("diode_resistance", 0.03),
         ("switch_node_capacitance", 300e-12),
         ("switch_node_ring", 1.0),
+        ("switch_node_damping", 47.0),
         ("low_side_ratio", 0.5),
         ("dcm", 1.0),
         ("dead_time", 20e-9),
@@ -839,7 +840,12 @@ impl RingLobe {
     const H: f64 = T / RING_SAMPLES as f64;
 
     fn new(duty: f64, io: f64) -> Self {
-        let p = Params { diode_drop: Self::VF, switch_node_capacitance: Self::CSW, switch_node_ring: true, ..Params::default() };
+        Self::damped(duty, io, 0.0)
+    }
+
+    /// [`RingLobe::new`] with the node's capacitance behind `damping` [Ω].
+    fn damped(duty: f64, io: f64, damping: f64) -> Self {
+        let p = Params { diode_drop: Self::VF, switch_node_capacitance: Self::CSW, switch_node_ring: true, switch_node_damping: damping, ..Params::default() };
         let mut conv = converter(p, Mode::Switched, duty, io);
         settle(&mut conv, 3000);
         let vout = conv.outputs().vout;
@@ -890,6 +896,58 @@ fn a_blocked_inductor_rings_with_the_switch_node() {
     let il = trace_il(&mut held);
     let block = (RING_SAMPLES / 5..RING_SAMPLES).find(|&k| il[k] == 0.0).expect("the diode blocks");
     assert!(il[block..].iter().all(|&i| i == 0.0), "without the ring il holds at zero");
+}
+
+/// Behind a snubber's resistance `Rd` the ring is a series RLC's: from the clamp with
+/// `il = 0`, `il = −(vout + Vf)/(L·ωd)·e^(−α·t)·sin(ωd·t)` with `α = (Rd + RL)/(2L)` and
+/// `ωd = √(1/(L·Csw) − α²)`. With 20 Ω on 1 nF and 3.3 µH (ζ = 0.18) the lobe lasts `π/ωd`, its
+/// depth is reached at `atan(ωd/α)/ωd`, and the next lobe's peak is `e^(−απ/ωd)` of it: each
+/// within 2 %.
+#[test]
+fn a_damped_ring_decays_as_a_series_rlc() {
+    let rd = 20.0;
+    let lobe = RingLobe::damped(0.2, 0.5, rd);
+    let (l, vf) = (lobe.p.l, RingLobe::VF);
+    let alpha = (rd + lobe.p.rl) / (2.0 * l);
+    let wd = (1.0 / (l * RingLobe::CSW) - alpha * alpha).sqrt();
+    let lobe_il = &lobe.il[lobe.block..lobe.end];
+    let depth = -lobe_il.iter().fold(0.0, |m: f64, &i| m.min(i));
+    let at = (wd / alpha).atan() / wd;
+    let want = (lobe.vout + vf) / (l * wd) * (-alpha * at).exp() * (wd * at).sin();
+    assert!((lobe.length() * wd / std::f64::consts::PI - 1.0).abs() < 0.02, "lobe {} s vs {} s", lobe.length(), std::f64::consts::PI / wd);
+    assert!((depth / want - 1.0).abs() < 0.02, "depth {depth} A vs {want} A");
+    let next = lobe.il[lobe.end..].iter().take(lobe.end - lobe.block).fold(0.0, |m: f64, &i| m.max(i));
+    let ratio = (-alpha * std::f64::consts::PI / wd).exp();
+    assert!((next / depth / ratio - 1.0).abs() < 0.02, "next lobe {next} A: {} of the first vs {ratio}", next / depth);
+}
+
+/// Where the snubber's resistance drops more than the node's swing at the edge's current
+/// (`Rd·il > vin + Vf`), the node jumps to the diode's clamp at once: its capacitance, behind the
+/// resistance, discharges in the diode's loop, and the inductor sees the node switch as if it had
+/// none (the same trajectory to 1e-12 over 200 periods of a diode buck in CCM). A snubber whose
+/// resistance leaves part of the swing slows the node's fall: more volt-seconds, a higher output.
+#[test]
+fn a_snubbers_resistance_lets_the_node_jump_to_its_clamp() {
+    let bare = Params { diode_drop: 0.4, ..Params::default() };
+    let node = |csw: f64, rd: f64| Params { switch_node_capacitance: csw, switch_node_damping: rd, ..bare };
+    let run = |p: Params| {
+        let mut conv = converter(p, Mode::Switched, 0.4, 2.0);
+        (0..200)
+            .map(|k| {
+                conv.set(VarId::Duty, if k % 7 < 3 { 0.4 } else { 0.6 }).unwrap();
+                conv.step(T).unwrap();
+                conv.outputs()
+            })
+            .collect::<Vec<_>>()
+    };
+    let (plain, jumped) = (run(bare), run(node(10e-9, 100.0)));
+    for (a, b) in plain.iter().zip(&jumped) {
+        assert_relative_eq!(a.vout, b.vout, epsilon = 1e-12);
+        assert_relative_eq!(a.il, b.il, epsilon = 1e-12);
+    }
+    let (slewed, part) = (run(node(10e-9, 0.0)), run(node(10e-9, 3.0)));
+    let mean = |o: &[Outputs]| o[100..].iter().map(|o| o.vout).sum::<f64>() / 100.0;
+    assert!(mean(&slewed) > mean(&part) && mean(&part) > mean(&plain), "{} > {} > {}", mean(&slewed), mean(&part), mean(&plain));
 }
 
 /// A ring whose swing about the output would carry the node beyond `vin + V_bd` (an output of

@@ -61,6 +61,14 @@ pub struct Params {
     /// starts from the current the ring has then (in deep DCM that sets each period's charge).
     /// Off (the default), as the estimator's fits assume: a blocked inductor holds `il = 0`.
     pub switch_node_ring: bool,
+    /// Resistance in series with the switch node's capacitance [Ω]: an RC snubber across the
+    /// diode is a capacitance behind a resistor, and a diode buck's snubber is often the
+    /// node's largest capacitance. The ring (`switch_node_ring`) is then damped, the node at
+    /// `vcap − Rd·il`; at an edge the node jumps by `Rd·|il|` toward its clamp and slews the
+    /// rest (none where `Rd·|il|` spans the whole swing: the snubber's charge then flows in
+    /// the diode's loop, not through L). A ring's clamp is taken where the capacitance's voltage
+    /// reaches it. 0 (the default): the capacitance sits on the node.
+    pub switch_node_damping: f64,
     /// `load_esr`: series resistance of `Cl` [Ω]; `vout` is then the node voltage.
     pub load_esr: f64,
     /// `esl`: series inductance of the main capacitor branch `C`, `Rc` [H].
@@ -182,6 +190,7 @@ impl Default for Params {
             dead_time: 0.0,
             switch_node_capacitance: 0.0,
             switch_node_ring: false,
+            switch_node_damping: 0.0,
             load_esr: 0.0,
             esl: 0.0,
             inductor_saturation: 0.0,
@@ -231,6 +240,7 @@ impl Params {
             (VarId::DiodeResistance, self.diode_resistance),
             (VarId::DeadTime, self.dead_time),
             (VarId::SwitchNodeCapacitance, self.switch_node_capacitance),
+            (VarId::SwitchNodeDamping, self.switch_node_damping),
             (VarId::LoadEsr, self.load_esr),
             (VarId::Esl, self.esl),
             (VarId::InductorSaturation, self.inductor_saturation),
@@ -311,8 +321,9 @@ impl Params {
     /// `C` branch when `esl > 0`), inputs `[u_sw, io]`, with the series resistance `r` and the
     /// incremental inductance `l` of the inductor path and the load capacitance `cl` in force.
     /// `blocked`: both switches and the diode off. The inductor then rings with the switch
-    /// node's capacitance where there is one ([`Params::rings`]): the node's voltage `vsw` is a
-    /// fourth state, `L dil/dt = vsw − r·il − vn`, `Csw dvsw/dt = −il`; else `il` stays at zero.
+    /// node's capacitance where there is one ([`Params::rings`]): the capacitance's voltage
+    /// `vsw` is a fourth state, `L dil/dt = vsw − (Rd + r)·il − vn`, `Csw dvsw/dt = −il` (`Rd`
+    /// the `switch_node_damping`); else `il` stays at zero.
     ///
     /// Without `esl`, the node voltage is `vn = vcl + load_esr·icl` with the current into `Cl`
     /// `icl = k·(il − io + (vc − vcl)/Rc)`, `k = Rc/(Rc + load_esr)`:
@@ -380,7 +391,7 @@ impl Params {
             )
         };
         if blocked && self.rings() {
-            return ringing(&lti, l, self.switch_node_capacitance);
+            return ringing(&lti, l, self.switch_node_capacitance, self.switch_node_damping);
         }
         if blocked {
             lti.a.row_mut(0).fill(0.0);
@@ -556,10 +567,11 @@ impl Params {
 
 /// The three-state circuit `lti` of an inductor path with resistance in its `il` row and
 /// inductance `l`, with the switch node as a fourth state `vsw` in place of the input `u_sw`:
-/// the node's capacitance `csw` ringing with the blocked inductor.
-fn ringing(lti: &Lti, l: f64, csw: f64) -> Lti {
+/// the node's capacitance `csw` ringing with the blocked inductor through `damping` [Ω].
+fn ringing(lti: &Lti, l: f64, csw: f64, damping: f64) -> Lti {
     let mut a = DMatrix::zeros(4, 4);
     a.view_mut((0, 0), (3, 3)).copy_from(&lti.a);
+    a[(0, 0)] -= damping / l;
     a[(0, 3)] = 1.0 / l;
     a[(3, 0)] = -1.0 / csw;
     let mut b = DMatrix::zeros(4, 2);

@@ -58,6 +58,7 @@ pub enum VarId {
     SwitchNodeCapacitance,
     LowSideRatio,
     SwitchNodeRing,
+    SwitchNodeDamping,
 }
 
 /// FMI causality.
@@ -212,6 +213,7 @@ pub const VARIABLES: &[Variable] = &[
         ty: Type::Boolean { start: false },
         description: "Once the diode blocks (DCM), il rings with switch_node_capacitance (the node swings about vout until the next turn-on or a diode clamp) instead of holding at 0 (switched mode only; not with esl)",
     },
+    real(VarId::SwitchNodeDamping, "switch_node_damping", Parameter, "Ohm", (0.0, 1e4), Some(0.0), "Resistance in series with switch_node_capacitance (an RC snubber's resistor): damps the ring, and at an edge the node jumps by switch_node_damping |il| before it slews (switched mode only)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.

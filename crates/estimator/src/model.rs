@@ -126,6 +126,9 @@ pub enum Free {
     /// `switch_node_capacitance`, charged by il while both switches are off
     /// ([`Structure::Exact`] and [`Structure::Simulated`] only).
     SwitchNodeCapacitance,
+    /// `switch_node_damping`: resistance in series with the switch node's capacitance (an RC
+    /// snubber's), damping its ring ([`Structure::Exact`] and [`Structure::Simulated`] only).
+    SwitchNodeDamping,
     /// `low_side_ratio`: the low-side switch's on-resistance over the high side's
     /// ([`Structure::Exact`] and [`Structure::Simulated`] only).
     LowSideRatio,
@@ -167,6 +170,7 @@ impl Free {
             Free::DiodeDrop => "diode_drop",
             Free::DiodeResistance => "diode_resistance",
             Free::SwitchNodeCapacitance => "switch_node_capacitance",
+            Free::SwitchNodeDamping => "switch_node_damping",
             Free::SwitchResistance => "switch_resistance",
             Free::LowSideRatio => "low_side_ratio",
             Free::InductorSaturation => "inductor_saturation",
@@ -282,6 +286,7 @@ impl Free {
             Free::DiodeDrop => p.diode_drop,
             Free::DiodeResistance => p.diode_resistance,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance,
+            Free::SwitchNodeDamping => p.switch_node_damping,
             Free::SwitchResistance => p.switch_resistance,
             Free::LowSideRatio => p.low_side_ratio,
             Free::InductorSaturation => p.inductor_saturation,
@@ -308,6 +313,7 @@ impl Free {
             Free::DiodeDrop => p.diode_drop = value,
             Free::DiodeResistance => p.diode_resistance = value,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance = value,
+            Free::SwitchNodeDamping => p.switch_node_damping = value,
             Free::SwitchResistance => p.switch_resistance = value,
             Free::LowSideRatio => p.low_side_ratio = value,
             Free::InductorSaturation => p.inductor_saturation = value,
