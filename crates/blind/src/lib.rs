@@ -130,7 +130,9 @@ pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // readings are exact: a sensor's calibration comes from the harness only, an anti-alias
     // filter from the third generator.
     std::iter::once("none").chain(
-        gap::EFFECTS.into_iter().filter(|e| !matches!(*e, "sample_delay" | "sensor_filter" | "diode_resistance" | "switch_node_capacitance" | "unequal_switches" | "sensor_offset" | "sensor_gain")),
+        gap::EFFECTS
+            .into_iter()
+            .filter(|e| !matches!(*e, "sample_delay" | "sensor_filter" | "diode_resistance" | "switch_node_capacitance" | "switch_node_ring" | "unequal_switches" | "sensor_offset" | "sensor_gain")),
     )
 }
 

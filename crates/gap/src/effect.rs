@@ -13,7 +13,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 19] = [
+pub const EFFECTS: [&str; 20] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -30,6 +30,7 @@ pub const EFFECTS: [&str; 19] = [
     "sensor_filter",
     "diode_resistance",
     "switch_node_capacitance",
+    "switch_node_ring",
     "unequal_switches",
     "sensor_offset",
     "sensor_gain",
@@ -50,7 +51,7 @@ pub(crate) fn calibrates_reading(name: &str) -> bool {
 /// and body diodes as a held node, the node's capacitance as one lumped charge (see
 /// [`crate::tested::CIRCUIT_FIDELITY_WITH_DEVICES`]).
 pub(crate) fn approximates_a_device(name: &str) -> bool {
-    matches!(name, "diode_drop" | "diode_resistance" | "dcm" | "inductor_saturation" | "cap_dc_bias" | "dead_time" | "switch_node_capacitance")
+    matches!(name, "diode_drop" | "diode_resistance" | "dcm" | "inductor_saturation" | "cap_dc_bias" | "dead_time" | "switch_node_capacitance" | "switch_node_ring")
 }
 
 /// Whether the effect `name` is what the vout reading does rather than the circuit: its

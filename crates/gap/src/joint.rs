@@ -104,6 +104,7 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     match g.name {
         "delay" => s.delay = 0,
         "dcm" => s.params.dcm = nominal.dcm,
+        "switch_node_ring" => s.params.switch_node_ring = nominal.switch_node_ring,
         _ => {}
     }
     // Without dead time or a diode nothing conducts while both switches are off: the switch
@@ -113,7 +114,7 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     // without it, was dropped after 4 s of refits).
     let mut dependent = Vec::new();
     if !(s.params.dead_time > 0.0 || s.params.asynchronous() || s.params.dcm) {
-        dependent.extend([Free::SwitchNodeCapacitance, Free::DiodeResistance]);
+        dependent.extend([Free::SwitchNodeCapacitance, Free::SwitchNodeDamping, Free::DiodeResistance]);
     }
     if !s.free.contains(&Free::SwitchResistance) && s.params.switch_resistance == nominal.switch_resistance {
         dependent.push(Free::LowSideRatio);

@@ -61,6 +61,12 @@ pub(crate) const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 /// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
 pub(crate) const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
 
+/// A ringing switch node's capacitance tried as starts [F]: the node's own (a diode's junction,
+/// a MOSFET's output capacitance, the layout: about a nF) and an RC snubber's across a diode
+/// buck's diode (a few times that), each behind the resistance that damps its ring about
+/// critically, its characteristic impedance `√(L/C)`.
+pub(crate) const RING_CAPACITANCE_STARTS: [f64; 2] = [1.5e-9, 5e-9];
+
 /// The low-side switch's on-resistance over the high side's, tried as starts (a low side
 /// half or twice the high side's).
 const LOW_SIDE_RATIO_STARTS: [f64; 2] = [0.5, 2.0];
@@ -130,6 +136,13 @@ impl Stack {
                 self.free.push(f);
             }
             "delay" => self.delay = param("delay")? as isize,
+            "switch_node_ring" => {
+                for f in RING {
+                    f.set(&mut self.params, param(f.name())?);
+                    self.free.push(f);
+                }
+                self.params.switch_node_ring = true;
+            }
             name if let Some(f) = refinement(name) => {
                 f.set(&mut self.params, param(f.name())?);
                 self.free.push(f);
@@ -189,6 +202,15 @@ impl Stack {
         fit_from(&self.data(data), &[self.params], &self.free, n_est, Criterion::OutputError).map_err(|e| e.to_string())
     }
 
+    /// The share of its periods this model, run on `data`'s inputs, starts with a diode
+    /// blocked (DCM): 0 for a synchronous buck.
+    pub(crate) fn blocked_share(&self, data: &DataSet) -> f64 {
+        if !(self.switched && self.params.asynchronous()) {
+            return 0.0;
+        }
+        estimator::simulated::operation(&self.params, &self.data(data), data.vout[0]).map_or(0.0, |o| o.dcm_share)
+    }
+
     /// `name` as one more free parameter `f` of this model, started at each of `starts` and
     /// probed at `probe` (the other values as fitted).
     fn freeing(&self, name: &'static str, f: Free, starts: &[f64], probe: f64) -> Extension {
@@ -204,7 +226,9 @@ impl Stack {
 
     /// The candidates on top of this model: each remaining effect's model and its starts.
     /// `ripple`: the data is switched, so an averaged model may add `switching_ripple`.
-    fn extensions(&self, nominal: &Params, ripple: bool, io_mean: f64) -> Vec<Extension> {
+    /// `blocked`: the share of its periods this diode buck's model starts in DCM
+    /// ([`Stack::blocked_share`]).
+    fn extensions(&self, nominal: &Params, ripple: bool, io_mean: f64, blocked: f64) -> Vec<Extension> {
         let has = |n: &str| self.effects.contains(&n);
         let mut out = Vec::new();
         if ripple && !self.switched {
@@ -258,10 +282,19 @@ impl Stack {
             out.push(self.freeing("diode_resistance", Free::DiodeResistance, &DIODE_RESISTANCE_STARTS, p.diode_resistance + PROBE_RESISTANCE));
         }
         // Where both switches are ever off (dead time, a diode buck's off-time), il charges the
-        // switch node: its capacitance decides how fast the node slews.
+        // switch node: its capacitance decides how fast the node slews. Where the diode blocks,
+        // the inductor rings with it (a capacitance cannot hold il at zero), damped: an RC
+        // snubber's capacitance behind its resistor, or the node's own behind the loop's
+        // losses, which draws its charge from the output each period; the bare node's slew is
+        // then its least part.
         if (diode || has("dead_time")) && !self.free.contains(&Free::SwitchNodeCapacitance) {
-            let probe = p.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0];
-            out.push(self.freeing("switch_node_capacitance", Free::SwitchNodeCapacitance, &SWITCH_NODE_CAPACITANCE_STARTS, probe));
+            if diode && blocked > 0.0 {
+                out.push(self.ring());
+            }
+            if !(diode && blocked >= BLOCKED_SHARE) {
+                let probe = p.switch_node_capacitance + SWITCH_NODE_CAPACITANCE_STARTS[0];
+                out.push(self.freeing("switch_node_capacitance", Free::SwitchNodeCapacitance, &SWITCH_NODE_CAPACITANCE_STARTS, probe));
+            }
         }
         // A reading's calibration is judged against the circuit as designed (its values may
         // have drifted), read as the data was taken (a late reading, the other calibration): on
@@ -305,6 +338,17 @@ impl Stack {
         }
     }
 
+    /// This diode buck's switch node ringing with the blocked inductor, damped
+    /// (`switch_node_ring`, [`Params::switch_node_damping`]): its capacitance and the resistance
+    /// in series with it free, from each of [`RING_CAPACITANCE_STARTS`] behind `√(L/C)`.
+    fn ring(&self) -> Extension {
+        let mut stack = self.clone();
+        stack.free.extend(RING);
+        let at = |c: f64| Params { switch_node_capacitance: c, switch_node_damping: (self.params.l / c).sqrt(), switch_node_ring: true, ..self.params };
+        let starts: Vec<Params> = RING_CAPACITANCE_STARTS.iter().map(|&c| at(c)).collect();
+        Extension { name: "switch_node_ring", stack, probe: at(SWITCH_NODE_CAPACITANCE_STARTS[0]), starts, extra: RING.len(), not_nested: false }
+    }
+
     /// The simulated effect `e` added to this model.
     fn extension_of(&self, e: &SimulatedEffect, io_mean: f64) -> Extension {
         let starts = e.starts(&self.params, io_mean);
@@ -314,6 +358,14 @@ impl Stack {
         Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm }
     }
 }
+
+/// Share of a diode buck's periods that start in DCM from which its switch node is offered
+/// ringing only (`switch_node_ring`, see [`Stack::blocked_share`]): below it, where the diode
+/// blocks at all, beside the bare node's capacitance.
+const BLOCKED_SHARE: f64 = 0.25;
+
+/// What `switch_node_ring` frees: the node's capacitance and the resistance in series with it.
+pub(crate) const RING: [Free; 2] = [Free::SwitchNodeCapacitance, Free::SwitchNodeDamping];
 
 /// The effects that refine one already in the model by a parameter of its own (a diode's slope
 /// resistance, the switch node's capacitance, unequal switches): that parameter.
@@ -456,6 +508,13 @@ impl Extension {
                 let e = estimate(f)?;
                 params.insert(f.name().to_string(), e.value);
                 ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+            }
+            "switch_node_ring" => {
+                for f in RING {
+                    let e = estimate(f)?;
+                    params.insert(f.name().to_string(), e.value);
+                    ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
+                }
             }
             name => {
                 let effect = simulated_form(name, |f| self.added().contains(&f)).ok_or_else(|| format!("no simulator form of `{name}`"))?;
@@ -731,7 +790,7 @@ pub(crate) fn for_cl(
     let io_mean = io_mean(data);
     // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
     // it; what makes the output-error and high-pass fits disagree is in the dynamics.
-    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data)).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, &against, extensions, 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -789,7 +848,7 @@ pub(crate) fn read_late(
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
     let io_mean = io_mean(data);
-    let late = stack.extensions(nominal, switched_data, io_mean).into_iter().find(|x| x.name == "sample_delay")?;
+    let late = stack.extensions(nominal, switched_data, io_mean, 0.0).into_iter().find(|x| x.name == "sample_delay")?;
     // Fitted only where the score test finds the instant significant and its linearized move of
     // Cl comes near the interval's edge (a quarter of its half-width: the linearization is rough).
     let half_width = 0.5 * (cl_ci95[1] / cl_ci95[0]).ln();
@@ -905,7 +964,7 @@ pub(crate) fn forward(
             at_final_values(&mut selected, &against, nominal);
         }
         stack.params = against.fit.params;
-        let mut extensions = stack.extensions(nominal, switched_data, io_mean);
+        let mut extensions = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data));
         let displaced = std::sync::Mutex::new(Vec::new());
         // The extensions fitted in this step: each one's name and what it frees.
         let fits_made = std::sync::Mutex::new(Vec::new());
@@ -1162,7 +1221,7 @@ fn swaps(
             let others: Vec<&EffectFit> = selected.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, e)| e).collect();
             let base = Stack::of(&others, nominal, stack.params.cl, stack.switched).ok()?;
             let late = (s.name == "sensor_filter" && s.added.contains(&Free::SampleDelay)).then(|| base.extension_of(&SENSOR_FILTER_LATE, io_mean));
-            let x = base.extensions(nominal, switched_data, io_mean).into_iter().chain(late).find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
+            let x = base.extensions(nominal, switched_data, io_mean, base.blocked_share(data)).into_iter().chain(late).find(|x| x.name == s.name && x.added() == s.added.as_slice())?;
             let mut t = x.trial(data, nominal, n_est, holdout).ok()?;
             t.not_nested = true;
             let (mut fit, cand) = judge(x.name, t, against, n_est, baseline);
@@ -1235,7 +1294,7 @@ mod tests {
     fn an_effect_that_alone_beat_the_model_so_far_is_fitted_past_the_screen() {
         let baseline = Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
         let nominal = Params::default();
-        let offered = || Stack::nominal(&nominal, 3e-6, true).extensions(&nominal, true, 0.0);
+        let offered = || Stack::nominal(&nominal, 3e-6, true).extensions(&nominal, true, 0.0, 0.0);
         let alone =
             [finding("load_esr", &baseline, 2.97e-3, 0.02), finding("esl", &baseline, 3.7e-3, 0.02), finding("sensor_gain", &baseline, 2.5e-3, 0.02), finding("param_drift", &baseline, 2.0e-3, 0.02)];
         let mut rest = offered();
@@ -1277,6 +1336,41 @@ mod tests {
         assert_eq!(names(&effects), ["switch_resistance", "esl"]);
     }
 
+    /// A diode buck's switch node: where its model never blocks, the bare node's capacitance;
+    /// where it blocks in some periods, that and the node ringing with the blocked inductor
+    /// through a resistance (`switch_node_ring`); where it blocks in a quarter or more, the ring
+    /// alone. The ring frees both values and starts each capacitance behind `√(L/C)`.
+    /// `blocked_share` tells them apart on a simulated record: a diode buck at 0.3 A of
+    /// load starts every period with the diode blocked, at 10 A none (the duty steps ring il by
+    /// amperes: at 3 A half of them), and a synchronous one none.
+    #[test]
+    fn a_diode_buck_that_blocks_is_offered_its_node_ringing() {
+        use buck_model::Mode;
+        use estimator::experiment::{Experiment, ModelPlant, run};
+        let nominal = Params::default();
+        let diode = Params { diode_drop: 0.4, cl: 10e-6, ..nominal };
+        let stack = Stack { params: diode, free: vec![Free::Cl, Free::DiodeDrop], delay: 0, effects: vec!["diode_drop"], switched: true };
+        let node = |blocked: f64| {
+            let mut offered: Vec<&str> = stack.extensions(&nominal, true, 1.0, blocked).iter().map(|x| x.name).filter(|n| n.starts_with("switch_node")).collect();
+            offered.sort_unstable();
+            offered
+        };
+        assert_eq!(node(0.0), ["switch_node_capacitance"]);
+        assert_eq!(node(0.1), ["switch_node_capacitance", "switch_node_ring"]);
+        assert_eq!(node(BLOCKED_SHARE), ["switch_node_ring"]);
+        let ring = stack.extensions(&nominal, true, 1.0, 1.0).into_iter().find(|x| x.name == "switch_node_ring").unwrap();
+        assert_eq!(ring.added(), RING);
+        for (start, c) in ring.starts.iter().zip(RING_CAPACITANCE_STARTS) {
+            assert!(start.switch_node_ring && start.switch_node_capacitance == c && start.switch_node_damping == (nominal.l / c).sqrt(), "{start:?}");
+        }
+        let share = |p: Params, io: f64| {
+            let record = run(&mut ModelPlant::new(p, Mode::Switched), &Experiment { samples: 400, io, ..Experiment::default() }).unwrap();
+            Stack { params: p, ..stack.clone() }.blocked_share(&record)
+        };
+        let shares = [share(diode, 0.3), share(diode, 10.0), share(Params { cl: 10e-6, ..nominal }, 0.3)];
+        assert!(shares[0] > 0.99 && shares[1] == 0.0 && shares[2] == 0.0, "{shares:?}");
+    }
+
     /// The switches' resistance taken in series with L is offered split between the intervals it
     /// conducts in, started where it is the model so far: the diode buck's split (the switch's
     /// own and the diode's slope) and the synchronous buck's (the switches' own, the low side's
@@ -1293,7 +1387,8 @@ mod tests {
             let params = Params { rl: nominal.rl + 0.03, diode_drop, diode_resistance: 0.01, cl: 10e-6, ..nominal };
             let record = run(&mut ModelPlant::new(params, Mode::Switched), &exp).unwrap();
             let stack = Stack { params, free: vec![Free::Cl, Free::RL], delay: 0, effects: effects.clone(), switched: true };
-            let splits = |s: &Stack| s.extensions(&nominal, true, 2.0).into_iter().filter(|x| x.stack.free.contains(&Free::SwitchResistance) && !x.stack.free.contains(&Free::RL)).collect::<Vec<_>>();
+            let splits =
+                |s: &Stack| s.extensions(&nominal, true, 2.0, 0.0).into_iter().filter(|x| x.stack.free.contains(&Free::SwitchResistance) && !x.stack.free.contains(&Free::RL)).collect::<Vec<_>>();
             let [split] = splits(&stack).try_into().unwrap_or_else(|s: Vec<Extension>| panic!("{effects:?}: {} splits", s.len()));
             assert_eq!(split.added(), [refinement], "{effects:?}");
             assert_eq!(split.stack.free, [Free::Cl, Free::SwitchResistance, refinement]);
@@ -1302,7 +1397,7 @@ mod tests {
             let most = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
             assert!(most(&vout, &vout_split) < 1e-9 && most(&il, &il_split) < 1e-9, "{effects:?}: {} V, {} A", most(&vout, &vout_split), most(&il, &il_split));
             // Nor is the diode's slope offered on top of the series resistance: the split holds it.
-            assert!(!stack.extensions(&nominal, true, 2.0).iter().any(|x| x.name == "diode_resistance" && x.stack.free.contains(&Free::RL)));
+            assert!(!stack.extensions(&nominal, true, 2.0, 0.0).iter().any(|x| x.name == "diode_resistance" && x.stack.free.contains(&Free::RL)));
             let below = Stack { params: Params { rl: nominal.rl, ..params }, ..stack };
             assert!(splits(&below).is_empty(), "{effects:?}");
         }
