@@ -1117,9 +1117,10 @@ fn a_quiet_clean_capture_is_clean() {
 
 /// A thesis-stage diode buck with an RC snubber across its diode, L 15.5 % high, in DCM (third
 /// generator, seed 10602): the nominal misses by 90 noise floors, and no candidate explains it
-/// (the snubber is none of them). The verdict stays `none` in the JSON's contract, flagged
-/// `unexplained`, and the summary says it is no candidate's, not clean data's; a clean capture
-/// says `none` alone.
+/// (the snubber's ring is offered on top of a diode, and no diode alone fits: a drop of 4.8 V).
+/// The verdict stays `none` in the JSON's contract, flagged `unexplained`, and the summary says
+/// it is no candidate's, not clean data's, with Cl not identified and no leverage said; a clean
+/// capture says `none` alone.
 #[test]
 fn an_unexplained_gap_is_not_said_as_clean_datas_none() {
     let (data, _) = third_fixture("thesis-several-10602");
@@ -1132,6 +1133,8 @@ fn an_unexplained_gap_is_not_said_as_clean_datas_none() {
     assert_eq!(dx["unexplained"], true);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("verdict     none of the candidates: the nominal misses materially"), "{stdout}");
+    // Its Cl is not identified: no interval holds the values it leans on, so no leverage is said.
+    assert!(stdout.contains("(not identified)") && !stdout.contains("leverage"), "{stdout}");
     let (clean, _) = diagnose_third("pol-clean-7902");
     assert_eq!(clean["verdict"], "none");
     assert!(clean.get("unexplained").is_none(), "{clean}");

@@ -263,8 +263,13 @@ impl Diagnosis {
         self.verdict.clone()
     }
 
-    /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]).
+    /// A sentence on Cl's leverage on the values its model holds ([`Diagnosis::cl_leverage`]);
+    /// none where the final Cl is not identified (no interval holds them, and an unidentified
+    /// Cl's leverage is a slope on a flat valley: ±0.0 % per per cent).
     pub fn leverage(&self) -> Option<String> {
+        if !estimator::validate::identified(self.final_cl().1) {
+            return None;
+        }
         let lever = self.cl_leverage.as_ref().filter(|l| !l.is_empty())?;
         let each: Vec<String> = lever.iter().map(|(name, k)| format!("{k:+.1} % per 1 % of {name}")).collect();
         Some(format!("Cl moves {} (its interval holds them at their nominal values)", each.join(", ")))
