@@ -633,11 +633,11 @@ impl Converter {
     /// at, the current at the edge `i0` (held: the slew lasts nanoseconds) drives the node
     /// toward the diode clamp on its side (il > 0 down to `−Vf`, il < 0 up to `vin + V_bd`) in
     /// `Csw·|ΔV|/|i0|` (after a jump of `Rd·|i0|` behind a damping resistance `Rd`, see
-    /// [`Params::switch_node_damping`]), and the clamp holds it from there; a turn-on that comes first completes
-    /// the swing (hard switching). The window is the dead interval, or the first
-    /// [`SLEW_WINDOW`] of a diode buck's off-time, and the node is held at its mean over it:
-    /// the same volt-seconds, pieces of fixed length (their transitions stay cached), and il at
-    /// the window's end right to first order.
+    /// [`Params::switch_node_damping`]), and the clamp holds it from there; a turn-on that
+    /// comes first completes the swing (hard switching). The window is the dead interval, or
+    /// the first [`SLEW_WINDOW`] of a diode buck's off-time, and the node is held at its mean
+    /// over it: the same volt-seconds, pieces of fixed length (their transitions stay cached),
+    /// and il at the window's end right to first order.
     fn slew_at_edge(&mut self, period: f64) -> Option<(f64, f64)> {
         let (gate, end) = self.pwm_gate(period);
         if gate != Gate::Off {

@@ -180,6 +180,7 @@ const BLOCKED_IL: f64 = 1e-9;
 
 /// How the circuit `p` runs on `data`'s inputs from `start` ([`Operation`]).
 pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<Operation, EstimatorError> {
+    let start = start.into();
     // At each sampling instant the last completed period is the one before it (none at the
     // first); the record's last period completes at its end.
     let (mut sum, mut blocked, mut first) = (0.0, 0usize, true);
@@ -192,7 +193,14 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
     })?;
     let periods = data.len() as f64;
     let vout_time_mean = (sum + last.outputs().vout_avg) / periods;
-    let dcm_share = if p.asynchronous() { blocked as f64 / (periods - 1.0).max(1.0) } else { 0.0 };
+    // A ringing node's current at a period start has either sign: where the node rings, the
+    // periods whose diode blocked are counted on the circuit with its node held (the ring moves
+    // each period's charge a little, not whether the diode blocks).
+    let dcm_share = match p.asynchronous() {
+        false => 0.0,
+        true if p.rings() => operation(&Params { switch_node_ring: false, ..*p }, data, start)?.dcm_share,
+        true => blocked as f64 / (periods - 1.0).max(1.0),
+    };
     if vout_time_mean.is_finite() { Ok(Operation { vout_time_mean, dcm_share }) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
 }
 

@@ -48,7 +48,8 @@ pub(crate) fn calibrates_reading(name: &str) -> bool {
 /// Whether the effect `name`'s form approximates a device's curve or edge rather than being the
 /// element it names: a diode's exponential as a drop and a slope, its blocking as DCM, a core's
 /// soft saturation as a hard knee, a ceramic's bias curve as one law, a dead time's gate ramps
-/// and body diodes as a held node, the node's capacitance as one lumped charge (see
+/// and body diodes as a held node, the node's capacitance as one lumped charge, its ring as a
+/// linear RLC's (see
 /// [`crate::tested::CIRCUIT_FIDELITY_WITH_DEVICES`]).
 pub(crate) fn approximates_a_device(name: &str) -> bool {
     matches!(name, "diode_drop" | "diode_resistance" | "dcm" | "inductor_saturation" | "cap_dc_bias" | "dead_time" | "switch_node_capacitance" | "switch_node_ring")

@@ -108,10 +108,10 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
         _ => {}
     }
     // Without dead time or a diode nothing conducts while both switches are off: the switch
-    // node's capacitance and a diode's slope resistance go with them. Without the switches'
-    // resistance, the low side's ratio to it goes too (it scales nothing: the fit without the
-    // switches was singular, and the joint model, whose pruning needs every effect judged
-    // without it, was dropped after 4 s of refits).
+    // node's capacitance (and its ring's damping) and a diode's slope resistance go with them.
+    // Without the switches' resistance, the low side's ratio to it goes too (it scales nothing:
+    // the fit without the switches was singular, and the joint model, whose pruning needs every
+    // effect judged without it, was dropped after 4 s of refits).
     let mut dependent = Vec::new();
     if !(s.params.dead_time > 0.0 || s.params.asynchronous() || s.params.dcm) {
         dependent.extend([Free::SwitchNodeCapacitance, Free::SwitchNodeDamping, Free::DiodeResistance]);

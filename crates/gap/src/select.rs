@@ -204,7 +204,7 @@ impl Stack {
 
     /// The share of its periods this model, run on `data`'s inputs, starts with a diode
     /// blocked (DCM): 0 for a synchronous buck.
-    pub(crate) fn blocked_share(&self, data: &DataSet) -> f64 {
+    fn blocked_share(&self, data: &DataSet) -> f64 {
         if !(self.switched && self.params.asynchronous()) {
             return 0.0;
         }
