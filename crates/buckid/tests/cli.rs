@@ -750,6 +750,30 @@ fn a_diode_bucks_snubber_rings_and_lets_cl_be_identified() {
     assert!(dx["dcm_share"].as_f64().unwrap() > 0.99, "{}", dx["dcm_share"]);
 }
 
+/// An independent-harness diode buck at 0.66 A, in DCM in every period, 0.82 nF on its node
+/// beside the Schottky's 0.2 nF, its ADC 203 ns late (blind bench, seed 4343, dataset 3). The
+/// diode alone leaves 12 noise floors: once it blocks, the node rings with L. The ring fitted
+/// with a damping resistance (3.2 Ω) left 1.4 floors with Cl 17.8 [15.2, 24.0] µF for 11.4: the
+/// damping stood in for the late reading, which, fitted on top, left it unidentified and was
+/// refused. Beside the late reading the ring is undamped: the node's capacitance between its
+/// own and the junction's added, the instant at the harness's, the floor reached, and Cl's
+/// interval holds the truth.
+#[test]
+fn a_late_reading_that_unpins_a_rings_damping_is_taken_with_the_ring_undamped() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "diode-ring-4343-3"));
+    assert_eq!(selected_names(&dx), ["diode_drop", "switch_node_ring", "sample_delay"], "{}", dx["selection_ended"]);
+    let ring = &dx["selected"][1]["params"];
+    assert!(ring.get("switch_node_damping").is_none(), "{ring}");
+    let settings = &truth["settings"];
+    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
+    let csw = ring["switch_node_capacitance"].as_f64().unwrap();
+    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
+    assert_within("the reading's instant [s]", selected_param(&dx, "sample_delay"), &settings["adc_delay"], 0.05);
+    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    assert!(last["rms_after"].as_f64().unwrap() < 1.1 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_final_cl_holds_truth(&dx, &truth, 1.5);
+}
+
 /// The thesis buck with an 88 mΩ ESR on its 3.05 µF load, read 47 ns late (third generator,
 /// seed 8302): il shows the late reading, so it is taken first; the ESR alone had closed 99 % of
 /// the gap, yet on top of the late reading the screen's linearization ranked it twelfth of

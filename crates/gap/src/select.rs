@@ -136,10 +136,14 @@ impl Stack {
                 self.free.push(f);
             }
             "delay" => self.delay = param("delay")? as isize,
+            // Its damping where it has one (see `Extension::undamped`).
             "switch_node_ring" => {
-                for f in RING {
+                for f in RING.into_iter().filter(|&f| f != Free::SwitchNodeDamping || e.params.contains_key(f.name())) {
                     f.set(&mut self.params, param(f.name())?);
                     self.free.push(f);
+                }
+                if !e.params.contains_key(Free::SwitchNodeDamping.name()) {
+                    self.params.switch_node_damping = 0.0;
                 }
                 self.params.switch_node_ring = true;
             }
@@ -450,6 +454,16 @@ impl Extension {
         stack.free.retain(|f| !frees.contains(f));
         stack.free.extend_from_slice(frees);
         Extension { name, probe: stack.params, stack, starts: vec![without], extra: frees.len(), not_nested: false }
+    }
+
+    /// It on top of the model it extends with a ringing node's damping fixed at zero.
+    fn undamped(&self) -> Self {
+        let mut x = self.clone();
+        x.stack.free.retain(|&f| f != Free::SwitchNodeDamping);
+        for p in x.starts.iter_mut().chain([&mut x.probe, &mut x.stack.params]) {
+            p.switch_node_damping = 0.0;
+        }
+        x
     }
 
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
@@ -971,7 +985,18 @@ pub(crate) fn forward(
         let fits_so_far = || fits_made.lock().map(|f| f.clone()).unwrap_or_default();
         let try_one = |x: &Extension| {
             fits_made.lock().map(|mut f| f.push((x.name, x.added().to_vec()))).ok();
-            let t = x.trial(data, nominal, n_est, holdout);
+            let mut t = x.trial(data, nominal, n_est, holdout);
+            // Where it leaves a ringing node's damping unidentified, the ring is undamped beside
+            // it (the node's own capacitance, lightly damped by the loop, read late: the damping
+            // stood in for the instant).
+            let undamped = matches!(t, Err(TrialError::Displaces(Free::SwitchNodeDamping))).then(|| x.undamped());
+            let x = match &undamped {
+                Some(u) => {
+                    t = u.trial(data, nominal, n_est, holdout);
+                    u
+                }
+                None => x,
+            };
             if let Err(TrialError::Displaces(lost)) = &t {
                 let swap = Swap { name: x.name, added: x.added().to_vec(), lost: *lost };
                 displaced.lock().map(|mut d| d.push(swap)).ok();
@@ -1142,6 +1167,13 @@ pub(crate) fn forward(
         if let Some(resistance) = in_own_form(&mut selected, &stack) {
             let (on, off) = if fit.name == "diode_resistance" { ("the switch (on-time)", "the diode (off-time)") } else { ("the high side", "the low side") };
             notes.push(format!("{resistance}, taken in series with L, split between {on} and {off}: {}", fit.label()));
+        }
+        // A ring left undamped beside the newcomer (see `try_one`) is said so.
+        if stack.params.switch_node_ring && !stack.free.contains(&Free::SwitchNodeDamping) {
+            for e in selected.iter_mut().filter(|e| e.name == "switch_node_ring") {
+                e.params.remove(Free::SwitchNodeDamping.name());
+                e.ci95.remove(Free::SwitchNodeDamping.name());
+            }
         }
         selected.push(fit);
         at_final_values(&mut selected, &cand, nominal);
@@ -1363,6 +1395,22 @@ mod tests {
         for (start, c) in ring.starts.iter().zip(RING_CAPACITANCE_STARTS) {
             assert!(start.switch_node_ring && start.switch_node_capacitance == c && start.switch_node_damping == (nominal.l / c).sqrt(), "{start:?}");
         }
+        // Undamped beside a newcomer that unpins its damping: the damping fixed at zero, in the
+        // model and as a step of a path rebuilt from its effects.
+        let undamped = ring.undamped();
+        assert_eq!(undamped.stack.free, [Free::Cl, Free::DiodeDrop, Free::SwitchNodeCapacitance]);
+        assert!(undamped.starts.iter().chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
+        let mut fit = finding(
+            "switch_node_ring",
+            &Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] },
+            3e-3,
+            0.02,
+        );
+        fit.params = BTreeMap::from([("switch_node_capacitance".to_string(), 1e-9), ("switch_node_damping".to_string(), 3.0)]);
+        let rebuilt = |fit: &EffectFit| Stack::nominal(&diode, 10e-6, true).with(fit).unwrap();
+        assert_eq!((rebuilt(&fit).free, rebuilt(&fit).params.switch_node_damping), (vec![Free::Cl, Free::SwitchNodeCapacitance, Free::SwitchNodeDamping], 3.0));
+        fit.params.remove("switch_node_damping");
+        assert_eq!((rebuilt(&fit).free, rebuilt(&fit).params.switch_node_damping), (vec![Free::Cl, Free::SwitchNodeCapacitance], 0.0));
         let share = |p: Params, io: f64| {
             let record = run(&mut ModelPlant::new(p, Mode::Switched), &Experiment { samples: 400, io, ..Experiment::default() }).unwrap();
             Stack { params: p, ..stack.clone() }.blocked_share(&record)
