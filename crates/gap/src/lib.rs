@@ -281,10 +281,14 @@ impl Diagnosis {
         self.dcm_share.map(|share| match share {
             0.0 => "the final model, a diode buck, conducts continuously (CCM) in every period".to_string(),
             s => {
-                let ring = self.selected.iter().any(|e| e.name == "switch_node_ring");
-                let blocked = if ring { "the diode blocked, its switch node ringing with L, damped" } else { "the diode blocked, il at zero" };
+                let ring = self.selected.iter().find(|e| e.name == "switch_node_ring");
+                let blocked = match ring {
+                    Some(e) if e.params.contains_key("switch_node_damping") => "the diode blocked, its switch node ringing with L, damped",
+                    Some(_) => "the diode blocked, its switch node ringing with L",
+                    None => "the diode blocked, il at zero",
+                };
                 let share = format!("the final model, a diode buck, starts {:.1} % of its periods in DCM ({blocked})", 100.0 * s);
-                if s < DEEP_DCM || ring {
+                if s < DEEP_DCM || ring.is_some() {
                     return share;
                 }
                 format!("{share}; in deep DCM a real switch node rings with L once the diode blocks, and the ring's current at the next turn-on moves each period's charge: not in this model (`switch_node_ring`), so Cl, L and the drop may take its place")
