@@ -243,15 +243,13 @@ impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
     /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
-        let nominal;
-        let cl = match self.selected.last() {
-            Some(e) => &e.cl,
-            None => {
-                nominal = self.gap_before.cl_move();
-                &nominal
-            }
-        };
+        let cl = self.final_cl_move();
         (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some((self.cl_fidelity, self.cl_circuit_fidelity))))
+    }
+
+    /// How Cl of the model the diagnosis ends with moved ([`Diagnosis::final_cl`]).
+    fn final_cl_move(&self) -> std::borrow::Cow<'_, ClMove> {
+        self.selected.last().map_or_else(|| std::borrow::Cow::Owned(self.gap_before.cl_move()), |e| std::borrow::Cow::Borrowed(&e.cl))
     }
 
     /// The verdict in words: the first selected effect, `none`, or, where the gap is
@@ -267,7 +265,7 @@ impl Diagnosis {
     /// none where the final Cl is not identified (no interval holds them, and an unidentified
     /// Cl's leverage is a slope on a flat valley: ±0.0 % per per cent).
     pub fn leverage(&self) -> Option<String> {
-        if !estimator::validate::identified(self.final_cl().1) {
+        if !estimator::validate::identified(self.final_cl_move().ci95) {
             return None;
         }
         let lever = self.cl_leverage.as_ref().filter(|l| !l.is_empty())?;
@@ -283,7 +281,7 @@ impl Diagnosis {
             s => {
                 let ring = self.selected.iter().find(|e| e.name == "switch_node_ring");
                 let blocked = match ring {
-                    Some(e) if e.params.contains_key("switch_node_damping") => "the diode blocked, its switch node ringing with L, damped",
+                    Some(e) if e.params.contains_key(Free::SwitchNodeDamping.name()) => "the diode blocked, its switch node ringing with L, damped",
                     Some(_) => "the diode blocked, its switch node ringing with L",
                     None => "the diode blocked, il at zero",
                 };

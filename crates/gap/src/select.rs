@@ -516,15 +516,12 @@ impl Extension {
             "delay" => {
                 params.insert("delay".to_string(), self.stack.delay as f64);
             }
-            // One parameter reported under its own name.
-            name if name == "switch_resistance" || refinement(name).is_some() => {
-                let f = *added.first().ok_or_else(|| "nothing freed".to_string())?;
-                let e = estimate(f)?;
-                params.insert(f.name().to_string(), e.value);
-                ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
-            }
-            "switch_node_ring" => {
-                for f in RING {
+            // Each parameter it frees reported under its own name (one, but for the ring's two).
+            name if name == "switch_resistance" || name == "switch_node_ring" || refinement(name).is_some() => {
+                if added.is_empty() {
+                    return Err("nothing freed".to_string().into());
+                }
+                for &f in added {
                     let e = estimate(f)?;
                     params.insert(f.name().to_string(), e.value);
                     ci95.insert(f.name().to_string(), [e.ci95.0, e.ci95.1]);
