@@ -781,6 +781,46 @@ fn a_late_reading_that_unpins_a_rings_damping_is_taken_with_the_ring_undamped() 
     assert_final_cl_holds_truth(&dx, &truth, 1.5);
 }
 
+/// An independent-harness diode buck at 1.37 A (a silicon diode, 0.25 nF of junction beside
+/// 0.91 nF on the node), 1.22 µF of load, its ADC 288 ns late, blocked in 55 % of its periods
+/// (blind bench, seed 4545, dataset 3). Its node rings with L once the diode blocks, damped by
+/// the loop's ohm or so. Started only snubbed (about critically damped), the ring's fit ran to
+/// 12.5 nF behind 13 Ω, the late reading it displaced, and the path ended at 3.7 floors with Cl
+/// at its 1 nF bound; from the bare node's lightly damped starts, fitted apart, it finds the
+/// node's capacitance, the floor comes near, and Cl's interval holds the truth.
+#[test]
+fn a_bare_nodes_ring_is_fitted_from_light_damping_apart_from_a_snubbers() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "diode-bare-ring-4545-3"));
+    let names = selected_names(&dx);
+    assert!(names.contains(&"diode_drop") && names.contains(&"switch_node_ring"), "{names:?}");
+    let ring = &dx["selected"].as_array().unwrap().iter().find(|e| e["name"] == "switch_node_ring").unwrap()["params"];
+    let settings = &truth["settings"];
+    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
+    let csw = ring["switch_node_capacitance"].as_f64().unwrap();
+    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
+    // Lightly damped: the loop's ohm or so against the ring's √(L/C) of about 57 Ω.
+    let damping = ring["switch_node_damping"].as_f64().unwrap();
+    assert!(damping < 0.05 * (3.3e-6 / csw).sqrt(), "{damping} Ω");
+    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    assert!(last["rms_after"].as_f64().unwrap() < 1.25 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_final_cl_holds_truth(&dx, &truth, 10.0);
+}
+
+/// An independent-harness diode buck at 0.33 A, blocked in every period, 8.33 µF of load, its
+/// ADC 229 ns late (blind bench, seed 4242, dataset 15). Its final model reaches the noise floor
+/// with a drop of 1.0 V for a silicon diode's 0.75 and the reading at 465 ns, where the measured
+/// il matches the model's only through a probe gain error of −33 %: a stand-in for a current the
+/// model does not carry. Cl sat at 12.0 [11.4, 13.0] µF; such a model is not the converter's
+/// circuit, and Cl is said not identified, with the reason.
+#[test]
+fn a_final_model_holding_a_stand_in_does_not_identify_cl() {
+    let (dx, _) = diagnose_generated(generated_fixture("harness", "diode-stand-in-4242-15"));
+    let cl = &dx["selected"].as_array().unwrap().last().unwrap()["cl"];
+    assert_eq!((cl["ci95"][0].as_f64(), cl["ci95"][1].as_f64()), (Some(0.0), None), "{cl}");
+    let why = cl["stand_in"].as_str().unwrap();
+    assert!(why.starts_with("in sample_delay, a current probe's gain error of"), "{why}");
+}
+
 /// The thesis buck with an 88 mΩ ESR on its 3.05 µF load, read 47 ns late (third generator,
 /// seed 8302): il shows the late reading, so it is taken first; the ESR alone had closed 99 % of
 /// the gap, yet on top of the late reading the screen's linearization ranked it twelfth of

@@ -61,11 +61,23 @@ pub(crate) const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 /// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
 pub(crate) const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
 
-/// A ringing switch node's capacitance tried as starts [F]: the node's own (a diode's junction,
-/// a MOSFET's output capacitance, the layout: about a nF) and an RC snubber's across a diode
-/// buck's diode (a few times that), each behind the resistance that damps its ring about
-/// critically, its characteristic impedance `√(L/C)`.
+/// A ringing switch node's capacitance tried as starts [F] where a snubber damps the ring: an
+/// RC snubber's across a diode buck's diode (a few nF), or the node's own (a diode's junction,
+/// a MOSFET's output capacitance, the layout: about a nF), each behind the resistance that
+/// damps its ring about critically, its characteristic impedance `√(L/C)`.
 pub(crate) const RING_CAPACITANCE_STARTS: [f64; 2] = [1.5e-9, 5e-9];
+
+/// A bare switch node's capacitance tried as starts of its ring [F], each behind
+/// [`LIGHT_DAMPING`] of `√(L/C)`. Its fit has a valley per number of ring cycles the blocked
+/// time holds, so the starts span a few hundred pF to a few nF: a harness diode buck whose
+/// node holds 1.2 nF, started at 1.5 nF behind `√(L/C)`, fitted 12.5 nF behind 13 Ω with Cl on
+/// its bound, 8.6 mV held out; from 1 nF behind 1.1 Ω it found 1.01 nF behind 1.2 Ω at 3.7 mV
+/// (floor 3.4), Cl 1.00 µF of 1.22.
+pub(crate) const RING_LIGHT_STARTS: [f64; 4] = [250e-12, 500e-12, 1e-9, 2e-9];
+
+/// The damping of a bare node's ring as a share of `√(L/C)`: the loop's few hundred mΩ to an
+/// ohm against the 30–100 Ω of a few hundred pF to a few nF with a few µH.
+pub(crate) const LIGHT_DAMPING: f64 = 0.02;
 
 /// The low-side switch's on-resistance over the high side's, tried as starts (a low side
 /// half or twice the high side's).
@@ -225,7 +237,7 @@ impl Stack {
             f.set(&mut p, v);
             p
         };
-        Extension { name, stack, starts: starts.iter().map(|&v| at(v)).collect(), probe: at(probe), extra: 1, not_nested: false }
+        Extension { name, stack, starts: starts.iter().map(|&v| at(v)).collect(), apart: Vec::new(), probe: at(probe), extra: 1, not_nested: false }
     }
 
     /// The candidates on top of this model: each remaining effect's model and its starts.
@@ -237,7 +249,7 @@ impl Stack {
         let mut out = Vec::new();
         if ripple && !self.switched {
             let s = Stack { switched: true, ..self.clone() };
-            out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], probe: self.params, extra: 0, not_nested: true });
+            out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], apart: Vec::new(), probe: self.params, extra: 0, not_nested: true });
         }
         let p = &self.params;
         if self.switched && !has("switch_resistance") && !self.free.contains(&Free::SwitchResistance) {
@@ -267,7 +279,7 @@ impl Stack {
         if self.delay == 0 {
             for n in DELAYS.into_iter().filter(|&n| n > 0) {
                 let s = Stack { delay: n, ..self.clone() };
-                out.push(Extension { name: "delay", stack: s, starts: vec![self.params], probe: self.params, extra: 1, not_nested: true });
+                out.push(Extension { name: "delay", stack: s, starts: vec![self.params], apart: Vec::new(), probe: self.params, extra: 1, not_nested: true });
             }
         }
         if !self.switched {
@@ -348,9 +360,10 @@ impl Stack {
     fn ring(&self) -> Extension {
         let mut stack = self.clone();
         stack.free.extend(RING);
-        let at = |c: f64| Params { switch_node_capacitance: c, switch_node_damping: (self.params.l / c).sqrt(), switch_node_ring: true, ..self.params };
-        let starts: Vec<Params> = RING_CAPACITANCE_STARTS.iter().map(|&c| at(c)).collect();
-        Extension { name: "switch_node_ring", stack, probe: at(SWITCH_NODE_CAPACITANCE_STARTS[0]), starts, extra: RING.len(), not_nested: false }
+        let at = |c: f64, share: f64| Params { switch_node_capacitance: c, switch_node_damping: share * (self.params.l / c).sqrt(), switch_node_ring: true, ..self.params };
+        let starts = RING_CAPACITANCE_STARTS.iter().map(|&c| at(c, 1.0)).collect();
+        let apart = RING_LIGHT_STARTS.iter().map(|&c| at(c, LIGHT_DAMPING)).collect();
+        Extension { name: "switch_node_ring", stack, probe: at(SWITCH_NODE_CAPACITANCE_STARTS[0], 1.0), starts, apart, extra: RING.len(), not_nested: false }
     }
 
     /// The simulated effect `e` added to this model.
@@ -359,7 +372,7 @@ impl Stack {
         let mut s = self.clone();
         s.params = starts[0];
         s.free.extend(e.extra.iter().map(|&(f, _)| f));
-        Extension { name: e.name, probe: s.params, stack: s, starts, extra: e.extra.len(), not_nested: e.dcm }
+        Extension { name: e.name, probe: s.params, stack: s, starts, apart: Vec::new(), extra: e.extra.len(), not_nested: e.dcm }
     }
 }
 
@@ -388,7 +401,10 @@ pub(crate) enum TrialError {
     /// It replaces rather than adds: this free parameter of an effect already in the model is
     /// no longer identified beside it (a swap may be tried, see [`Swap`]).
     Displaces(Free),
-    /// Its fit failed or its own parameters are not identified (why, for a reader's `{:?}`).
+    /// This free parameter of its own is not identified where the fit ended (the circuit's
+    /// values there).
+    Unidentified(Free, Box<Params>),
+    /// Its fit failed (why, for a reader's `{:?}`).
     Failed(#[expect(dead_code, reason = "no caller reports why a trial failed; kept for debugging a selection")] String),
 }
 
@@ -416,6 +432,11 @@ pub(crate) struct Extension {
     name: &'static str,
     stack: Stack,
     starts: Vec<Params>,
+    /// Starts in another valley of its criterion, ranked and fitted apart from `starts`: the
+    /// fit that leaves the less estimation error is kept. A ring's bare forms, lightly damped,
+    /// beside its snubbed ones: ranked together, a snubbed board's 7.3 nF behind 27 Ω took the
+    /// bare 0.5 nF start, whose fit ran its damping to zero at 7 noise floors.
+    apart: Vec<Params>,
     /// Circuit values a small way into the effect, for the screen's direction.
     probe: Params,
     extra: usize,
@@ -453,14 +474,23 @@ impl Extension {
         let mut stack = stack.clone();
         stack.free.retain(|f| !frees.contains(f));
         stack.free.extend_from_slice(frees);
-        Extension { name, probe: stack.params, stack, starts: vec![without], extra: frees.len(), not_nested: false }
+        Extension { name, probe: stack.params, stack, starts: vec![without], apart: Vec::new(), extra: frees.len(), not_nested: false }
+    }
+
+    /// It undamped ([`Self::undamped`]) from the circuit values `from` alone.
+    fn undamped_from(&self, from: Params) -> Self {
+        let x = Self { starts: vec![from], apart: Vec::new(), ..self.clone() };
+        x.undamped()
     }
 
     /// It on top of the model it extends with a ringing node's damping fixed at zero.
     fn undamped(&self) -> Self {
         let mut x = self.clone();
+        if x.added().contains(&Free::SwitchNodeDamping) {
+            x.extra -= 1;
+        }
         x.stack.free.retain(|&f| f != Free::SwitchNodeDamping);
-        for p in x.starts.iter_mut().chain([&mut x.probe, &mut x.stack.params]) {
+        for p in x.starts.iter_mut().chain(x.apart.iter_mut()).chain([&mut x.probe, &mut x.stack.params]) {
             p.switch_node_damping = 0.0;
         }
         x
@@ -468,7 +498,14 @@ impl Extension {
 
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
     fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, TrialError> {
-        let cand = self.stack.fit(data, &self.starts, n_est, holdout)?;
+        let fit = |starts: &[Params]| self.stack.fit(data, starts, n_est, holdout);
+        let cand = if self.apart.is_empty() {
+            fit(&self.starts)?
+        } else {
+            let error = |c: &Result<Candidate, String>| c.as_ref().ok().and_then(|c| c.fit.sigma.first().copied()).unwrap_or(f64::INFINITY);
+            let (a, b) = rayon::join(|| fit(&self.starts), || fit(&self.apart));
+            if error(&b) < error(&a) { b } else { a }?
+        };
         self.assess(cand, data, nominal)
     }
 
@@ -479,8 +516,8 @@ impl Extension {
         // no longer pinned down, the newcomer replaces rather than adds.
         let added = self.added();
         if let Some(lost) = cand.fit.estimates.iter().find(|e| e.name != "Cl" && !estimator::validate::identified([e.ci95.0, e.ci95.1])) {
-            if added.iter().any(|f| f.name() == lost.name) {
-                return Err(format!("{}: `{}` not identified", self.name, lost.name).into());
+            if let Some(&f) = added.iter().find(|f| f.name() == lost.name) {
+                return Err(TrialError::Unidentified(f, Box::new(cand.fit.params)));
             }
             return Err(match self.stack.free.iter().find(|f| f.name() == lost.name) {
                 Some(&f) => TrialError::Displaces(f),
@@ -985,8 +1022,13 @@ pub(crate) fn forward(
             let mut t = x.trial(data, nominal, n_est, holdout);
             // Where it leaves a ringing node's damping unidentified, the ring is undamped beside
             // it (the node's own capacitance, lightly damped by the loop, read late: the damping
-            // stood in for the instant).
-            let undamped = matches!(t, Err(TrialError::Displaces(Free::SwitchNodeDamping))).then(|| x.undamped());
+            // stood in for the instant). A ring whose own damping ran to zero is fitted undamped
+            // from where it ended.
+            let undamped = match &t {
+                Err(TrialError::Displaces(Free::SwitchNodeDamping)) => Some(x.undamped()),
+                Err(TrialError::Unidentified(Free::SwitchNodeDamping, ended)) => Some(x.undamped_from(**ended)),
+                _ => None,
+            };
             let x = match &undamped {
                 Some(u) => {
                     t = u.trial(data, nominal, n_est, holdout);
@@ -1389,14 +1431,22 @@ mod tests {
         assert_eq!(node(BLOCKED_SHARE), ["switch_node_ring"]);
         let ring = stack.extensions(&nominal, true, 1.0, 1.0).into_iter().find(|x| x.name == "switch_node_ring").unwrap();
         assert_eq!(ring.added(), RING);
-        for (start, c) in ring.starts.iter().zip(RING_CAPACITANCE_STARTS) {
-            assert!(start.switch_node_ring && start.switch_node_capacitance == c && start.switch_node_damping == (nominal.l / c).sqrt(), "{start:?}");
+        // Snubbed (about critically damped) starts, and apart from them bare (lightly damped) ones.
+        let shares = RING_CAPACITANCE_STARTS.map(|c| (c, 1.0)).into_iter().chain(RING_LIGHT_STARTS.map(|c| (c, LIGHT_DAMPING)));
+        assert_eq!((ring.starts.len(), ring.apart.len()), (RING_CAPACITANCE_STARTS.len(), RING_LIGHT_STARTS.len()));
+        for (start, (c, share)) in ring.starts.iter().chain(&ring.apart).zip(shares) {
+            assert!(start.switch_node_ring && start.switch_node_capacitance == c && start.switch_node_damping == share * (nominal.l / c).sqrt(), "{start:?}");
         }
+        // A ring whose own damping ran to zero: refitted undamped from where its fit ended.
+        let ended = Params { switch_node_capacitance: 0.4e-9, switch_node_damping: 1e-6, ..ring.starts[0] };
+        let bare = ring.undamped_from(ended);
+        assert_eq!(bare.added(), [Free::SwitchNodeCapacitance]);
+        assert_eq!((bare.starts, bare.apart), (vec![Params { switch_node_damping: 0.0, ..ended }], Vec::new()));
         // Undamped beside a newcomer that unpins its damping: the damping fixed at zero, in the
         // model and as a step of a path rebuilt from its effects.
         let undamped = ring.undamped();
         assert_eq!(undamped.stack.free, [Free::Cl, Free::DiodeDrop, Free::SwitchNodeCapacitance]);
-        assert!(undamped.starts.iter().chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
+        assert!(undamped.starts.iter().chain(&undamped.apart).chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
         let mut fit = finding(
             "switch_node_ring",
             &Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] },
