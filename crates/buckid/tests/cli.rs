@@ -821,6 +821,25 @@ fn a_final_model_holding_a_stand_in_does_not_identify_cl() {
     assert!(why.starts_with("in sample_delay, a current probe's gain error of"), "{why}");
 }
 
+/// An independent-harness diode buck at 0.95 A (a silicon diode with 40 mΩ of its own, the high
+/// side's 6.6 mΩ), blocked in most periods, 2.06 µF of load, its ADC 103 ns late (blind bench,
+/// seed 4444, dataset 10). On top of the diode, the late reading and the node's ring, the
+/// screen ranked the series and the switches' resistance first; each closed too little, and the
+/// path ended 1.3 floors up with Cl 2.42 [2.29, 2.59] µF. A second round fits the next most
+/// promising while nothing is material: the diode's slope resistance closes the material share,
+/// and Cl's interval holds the truth.
+#[test]
+fn a_step_with_nothing_material_fits_the_next_most_promising() {
+    let (dx, truth) = diagnose_generated(generated_fixture("harness", "diode-slope-4444-10"));
+    let names = selected_names(&dx);
+    assert!(["diode_drop", "switch_node_ring", "diode_resistance"].iter().all(|n| names.contains(n)), "{names:?}");
+    let slope = selected_param(&dx, "diode_resistance").as_f64().unwrap();
+    assert!((0.02..0.12).contains(&slope), "{slope} Ω");
+    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    assert!(last["rms_after"].as_f64().unwrap() < 1.25 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_final_cl_holds_truth(&dx, &truth, 1.5);
+}
+
 /// The thesis buck with an 88 mΩ ESR on its 3.05 µF load, read 47 ns late (third generator,
 /// seed 8302): il shows the late reading, so it is taken first; the ESR alone had closed 99 % of
 /// the gap, yet on top of the late reading the screen's linearization ranked it twelfth of
