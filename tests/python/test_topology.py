@@ -37,24 +37,29 @@ def test_a_diode_buck_whose_best_first_step_is_a_dead_time_is_a_diode_buck(bucki
 
 
 @needs_ngspice
-def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_identifies_no_cl(buckid_bin, tmp_path):
+def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_is_not_confidently_wrong(buckid_bin, tmp_path):
     """A Schottky point-of-load buck at 0.18 A (seed 1901: 6.24 uF on 70 uF, L 13 % above its
-    nominal, a 14 nF snubber on the node) starts every period in DCM. The diode's drop takes
-    the inductor's place (788 mV for 0.29 V), and the model still misses vout by 2.8 floors:
-    its charge per period is not the converter's, and in deep DCM Cl shows only through that
-    charge. Its interval, 21-54 uF for 6.24, was confident and wrong; Cl is not identified and
-    the JSON says why."""
+    nominal, a 24 Ohm / 14 nF snubber on the node) starts every period in DCM. The diode's drop
+    takes the inductor's place (0.48 V for 0.29), and the fit's own interval, 31.9-33.3 uF, is
+    confident and wrong. Cl shows only through each period's charge there, and the model's
+    charge is not the converter's: the diode alone missed vout by 2.8 floors (Cl not identified
+    for that, `deep_dcm_miss`); with the node's ring beside it, 1.35 floors, Cl's interval spans
+    the output-error and the high-pass fits and is widened for the model error the residual
+    still shows, too wide to identify Cl. Either way Cl is said not identified, never the fit's
+    interval."""
     truth, dx, stdout = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "several", "--seed", "1901", "--periods", "3001")
     assert truth["topology"] == "async" and "dcm" in truth["effects"], truth["effects"]
     assert dx["selected"][0]["name"] == "diode_drop", dx["selection_ended"]
+    assert dx["dcm_share"] >= 0.9, dx["dcm_share"]
     cl = dx["selected"][-1]["cl"]
-    miss = cl["deep_dcm_miss"]
-    assert miss["dcm_share"] >= 0.9 and miss["misses_by_floors"] >= 2.0, miss
-    assert cl["ci95"][0] == 0.0 and cl["ci95"][1] is None, cl["ci95"]
     # What the model's own interval said, and the truth it left out.
     lo, hi = cl["check"]["model_ci95"]
     assert not lo <= truth["cl_true"] <= hi, (lo, hi, truth["cl_true"])
-    assert "not identified: the model starts" in stdout, stdout[-2000:]
+    # Reported: not identified, for the deep-DCM miss or for the width.
+    lo, hi = cl["ci95"]
+    assert hi is None or hi / lo >= 10, cl["ci95"]
+    assert (hi is None) == ("deep_dcm_miss" in cl), cl
+    assert "(not identified)" in next(line for line in stdout.splitlines() if line.startswith("Cl ")), stdout[-2000:]
 
 
 @needs_ngspice

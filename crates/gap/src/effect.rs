@@ -117,11 +117,6 @@ pub struct ClMove {
     /// `vout` by several noise floors ([`DeepDcmMiss`]); Cl is then not identified.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub deep_dcm_miss: Option<DeepDcmMiss>,
-    /// For a final model holding a value beyond the device it names
-    /// ([`EffectFit::beyond_the_device`]): in which effect, and why, in words. Such a model matches the
-    /// data with a stand-in, not as this converter's circuit: Cl is then not identified.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stand_in: Option<String>,
     /// For a final model whose bias law the diagnosis anchored: the operating point Cl is
     /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -274,16 +269,10 @@ impl ClMove {
         if let Some(m) = &self.deep_dcm_miss {
             test += &format!("; {m}");
         }
-        // A further reason joins the first rather than saying "not identified" again.
-        let mut voided = self.misses_by_floors.is_some() || self.deep_dcm_miss.is_some();
-        if let Some(why) = &self.stand_in {
-            let lead = if voided { "and" } else { "not identified:" };
-            test += &format!("; {lead} {why}, so the model is not this converter's circuit, and its Cl not the converter's");
-            voided = true;
-        }
         match &self.current_misfit {
             Some(misfit) if !misfit.contradicts() => test += &format!("; {}", misfit.slip()),
-            Some(misfit) if voided => test += &format!("; and {}", misfit.reason()),
+            // A second reason joins the first rather than saying "not identified" again.
+            Some(misfit) if self.misses_by_floors.is_some() => test += &format!("; and {}", misfit.reason()),
             Some(misfit) => test += &format!("; {misfit}"),
             None => {}
         }
@@ -336,7 +325,6 @@ impl ClMove {
             widened_by: None,
             bias_law: None,
             misses_by_floors: None,
-            stand_in: None,
             deep_dcm_miss: None,
             operating_point: None,
             twin: None,
@@ -1744,11 +1732,6 @@ pub(crate) mod tests {
         cl.misses_by_floors = None;
         let sentence = cl.sentence(None);
         assert!(sentence.contains("; not identified: the model's inductor current"), "{sentence}");
-        // A stand-in in the model is a reason of its own, said first where it is the first.
-        cl.stand_in = Some("in sample_delay, a current probe's gain error of -33 % is beyond a probe's tolerance".to_string());
-        let sentence = cl.sentence(None);
-        assert_eq!(sentence.matches("not identified").count(), 1, "{sentence}");
-        assert!(sentence.contains("; not identified: in sample_delay, a current probe's gain error of -33 %") && sentence.contains("; and the model's inductor current"), "{sentence}");
     }
 
     /// A current read through a probe the other way round is said, and voids nothing: the

@@ -610,7 +610,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
     let cl_circuit_fidelity = if selected.iter().any(|e| effect::approximates_a_device(e.name)) { CIRCUIT_FIDELITY_WITH_DEVICES } else { CIRCUIT_FIDELITY };
     let cl_fidelity = tested::fidelity(if selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }, cl_circuit_fidelity, cl_leverage.as_ref());
-    let stand_in = selected.iter().find_map(|e| Some(format!("in {}, {}", e.label(), e.beyond_the_device()?)));
     let (nominal_cl, cl_at_fidelity) = if let Some(last) = selected.last_mut() {
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
@@ -640,16 +639,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             if last.cl.deep_dcm_miss.is_some() {
                 last.cl.ci95 = [0.0, f64::INFINITY];
             }
-        }
-        // A final model that needs a value beyond a device's (a drop of volts, a probe's gain
-        // error of tens of per cent) matches the data with a stand-in, not as the converter's
-        // circuit: on 656 datasets of the harness, the third generator and the bench, each of the
-        // eight such final models missed the true Cl, one of them with an interval (a harness
-        // diode buck in deep DCM whose il, read 465 ns late through a probe gain of −33 %, put Cl
-        // at 12.0 [11.4, 13.0] µF for 8.33).
-        if let Some(stand_in) = stand_in {
-            last.cl.ci95 = [0.0, f64::INFINITY];
-            last.cl.stand_in = Some(stand_in);
         }
         if let Some(law) = last.cl.bias_law.as_ref() {
             last.cl.ci95 = law.spanned(last.cl.ci95);
