@@ -237,7 +237,7 @@ impl Stack {
             f.set(&mut p, v);
             p
         };
-        Extension { name, stack, starts: starts.iter().map(|&v| at(v)).collect(), apart: Vec::new(), probe: at(probe), extra: 1, not_nested: false }
+        Extension { name, stack, starts: starts.iter().map(|&v| at(v)).collect(), apart: None, probe: at(probe), extra: 1, not_nested: false }
     }
 
     /// The candidates on top of this model: each remaining effect's model and its starts.
@@ -249,7 +249,7 @@ impl Stack {
         let mut out = Vec::new();
         if ripple && !self.switched {
             let s = Stack { switched: true, ..self.clone() };
-            out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], apart: Vec::new(), probe: self.params, extra: 0, not_nested: true });
+            out.push(Extension { name: "switching_ripple", stack: s, starts: vec![self.params], apart: None, probe: self.params, extra: 0, not_nested: true });
         }
         let p = &self.params;
         if self.switched && !has("switch_resistance") && !self.free.contains(&Free::SwitchResistance) {
@@ -279,7 +279,7 @@ impl Stack {
         if self.delay == 0 {
             for n in DELAYS.into_iter().filter(|&n| n > 0) {
                 let s = Stack { delay: n, ..self.clone() };
-                out.push(Extension { name: "delay", stack: s, starts: vec![self.params], apart: Vec::new(), probe: self.params, extra: 1, not_nested: true });
+                out.push(Extension { name: "delay", stack: s, starts: vec![self.params], apart: None, probe: self.params, extra: 1, not_nested: true });
             }
         }
         if !self.switched {
@@ -356,14 +356,15 @@ impl Stack {
 
     /// This diode buck's switch node ringing with the blocked inductor, damped
     /// (`switch_node_ring`, [`Params::switch_node_damping`]): its capacitance and the resistance
-    /// in series with it free, from each of [`RING_CAPACITANCE_STARTS`] behind `√(L/C)`.
+    /// in series with it free, from each of [`RING_CAPACITANCE_STARTS`] behind `√(L/C)`, and,
+    /// in a valley apart, from each of [`RING_LIGHT_STARTS`] behind [`LIGHT_DAMPING`] of it.
     fn ring(&self) -> Extension {
         let mut stack = self.clone();
         stack.free.extend(RING);
         let at = |c: f64, share: f64| Params { switch_node_capacitance: c, switch_node_damping: share * (self.params.l / c).sqrt(), switch_node_ring: true, ..self.params };
         let starts = RING_CAPACITANCE_STARTS.iter().map(|&c| at(c, 1.0)).collect();
-        let apart = RING_LIGHT_STARTS.iter().map(|&c| at(c, LIGHT_DAMPING)).collect();
-        Extension { name: "switch_node_ring", stack, probe: at(SWITCH_NODE_CAPACITANCE_STARTS[0], 1.0), starts, apart, extra: RING.len(), not_nested: false }
+        let bare = Valley { starts: RING_LIGHT_STARTS.iter().map(|&c| at(c, LIGHT_DAMPING)).collect(), probe: at(RING_LIGHT_STARTS[0], LIGHT_DAMPING) };
+        Extension { name: "switch_node_ring", stack, probe: at(SWITCH_NODE_CAPACITANCE_STARTS[0], 1.0), starts, apart: Some(bare), extra: RING.len(), not_nested: false }
     }
 
     /// The simulated effect `e` added to this model.
@@ -372,7 +373,7 @@ impl Stack {
         let mut s = self.clone();
         s.params = starts[0];
         s.free.extend(e.extra.iter().map(|&(f, _)| f));
-        Extension { name: e.name, probe: s.params, stack: s, starts, apart: Vec::new(), extra: e.extra.len(), not_nested: e.dcm }
+        Extension { name: e.name, probe: s.params, stack: s, starts, apart: None, extra: e.extra.len(), not_nested: e.dcm }
     }
 }
 
@@ -426,17 +427,26 @@ struct Swap {
     lost: Free,
 }
 
+/// Another valley of an extension's criterion: its starts, ranked apart from the extension's
+/// own, and circuit values a small way into it, for the screen. A ring's bare forms, lightly
+/// damped, beside its snubbed ones: ranked together, a snubbed board's 7.3 nF behind 27 Ω took
+/// the bare 0.5 nF start, whose fit ran its damping to zero at 7 noise floors; and probed only
+/// as a snubber, a bare node's ring in deep DCM promised too little to be fitted.
+#[derive(Clone)]
+pub(crate) struct Valley {
+    starts: Vec<Params>,
+    probe: Params,
+}
+
 /// One effect on top of a model: the extended model and its start values.
 #[derive(Clone)]
 pub(crate) struct Extension {
     name: &'static str,
     stack: Stack,
     starts: Vec<Params>,
-    /// Starts in another valley of its criterion, ranked and fitted apart from `starts`: the
-    /// fit that leaves the less estimation error is kept. A ring's bare forms, lightly damped,
-    /// beside its snubbed ones: ranked together, a snubbed board's 7.3 nF behind 27 Ω took the
-    /// bare 0.5 nF start, whose fit ran its damping to zero at 7 noise floors.
-    apart: Vec<Params>,
+    /// Another valley of its criterion, fitted apart from `starts` (the fit that leaves the less
+    /// estimation error is kept) and screened by its own probe.
+    apart: Option<Valley>,
     /// Circuit values a small way into the effect, for the screen's direction.
     probe: Params,
     extra: usize,
@@ -468,12 +478,12 @@ impl Extension {
         let mut stack = stack.clone();
         stack.free.retain(|f| !frees.contains(f));
         stack.free.extend_from_slice(frees);
-        Extension { name, probe: stack.params, stack, starts: vec![without], apart: Vec::new(), extra: frees.len(), not_nested: false }
+        Extension { name, probe: stack.params, stack, starts: vec![without], apart: None, extra: frees.len(), not_nested: false }
     }
 
     /// It undamped ([`Self::undamped`]) from the circuit values `from` alone.
     fn undamped_from(&self, from: Params) -> Self {
-        let x = Self { starts: vec![from], apart: Vec::new(), ..self.clone() };
+        let x = Self { starts: vec![from], apart: None, ..self.clone() };
         x.undamped()
     }
 
@@ -484,7 +494,8 @@ impl Extension {
             x.extra -= 1;
         }
         x.stack.free.retain(|&f| f != Free::SwitchNodeDamping);
-        for p in x.starts.iter_mut().chain(x.apart.iter_mut()).chain([&mut x.probe, &mut x.stack.params]) {
+        let apart = x.apart.iter_mut().flat_map(|v| v.starts.iter_mut().chain([&mut v.probe]));
+        for p in x.starts.iter_mut().chain(apart).chain([&mut x.probe, &mut x.stack.params]) {
             p.switch_node_damping = 0.0;
         }
         x
@@ -493,12 +504,13 @@ impl Extension {
     /// Fits it and reports the effect's parameters (against the nominal circuit `nominal`).
     fn trial(&self, data: &DataSet, nominal: &Params, n_est: usize, holdout: f64) -> Result<Trial, TrialError> {
         let fit = |starts: &[Params]| self.stack.fit(data, starts, n_est, holdout);
-        let cand = if self.apart.is_empty() {
-            fit(&self.starts)?
-        } else {
-            let error = |c: &Result<Candidate, String>| c.as_ref().ok().and_then(|c| c.fit.sigma.first().copied()).unwrap_or(f64::INFINITY);
-            let (a, b) = rayon::join(|| fit(&self.starts), || fit(&self.apart));
-            if error(&b) < error(&a) { b } else { a }?
+        let cand = match &self.apart {
+            None => fit(&self.starts)?,
+            Some(valley) => {
+                let error = |c: &Result<Candidate, String>| c.as_ref().ok().and_then(|c| c.fit.sigma.first().copied()).unwrap_or(f64::INFINITY);
+                let (a, b) = rayon::join(|| fit(&self.starts), || fit(&valley.starts));
+                if error(&b) < error(&a) { b } else { a }?
+            }
         };
         self.assess(cand, data, nominal)
     }
@@ -759,7 +771,14 @@ impl Linearization {
     /// where the simulator cannot run the probe (its fit decides).
     fn promise(&self, data: &DataSet, stack: &Stack, x: &Extension, n_est: usize) -> Option<(f64, f64)> {
         let own = if x.stack.delay == stack.delay { self.est.clone() } else { x.stack.data(data).slice(0..n_est) };
-        let Some(y) = Self::run(&x.probe, &own, self.start) else { return Some((f64::INFINITY, f64::INFINITY)) };
+        let probes = std::iter::once(&x.probe).chain(x.apart.as_ref().map(|v| &v.probe));
+        probes.filter_map(|probe| self.promise_at(probe, &own)).max_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// What the direction of `probe` promises on `own` (the estimation data as the extension
+    /// reads it), as [`Self::promise`].
+    fn promise_at(&self, probe: &Params, own: &DataSet) -> Option<(f64, f64)> {
+        let Some(y) = Self::run(probe, own, self.start) else { return Some((f64::INFINITY, f64::INFINITY)) };
         let step = y - &self.y0;
         let s = self.project(&step);
         let ss = s.norm_squared();
@@ -1432,20 +1451,28 @@ mod tests {
         assert_eq!(ring.added(), RING);
         // Snubbed (about critically damped) starts, and apart from them bare (lightly damped) ones.
         let shares = RING_CAPACITANCE_STARTS.map(|c| (c, 1.0)).into_iter().chain(RING_LIGHT_STARTS.map(|c| (c, LIGHT_DAMPING)));
-        assert_eq!((ring.starts.len(), ring.apart.len()), (RING_CAPACITANCE_STARTS.len(), RING_LIGHT_STARTS.len()));
-        for (start, (c, share)) in ring.starts.iter().chain(&ring.apart).zip(shares) {
+        let bare = ring.apart.as_ref().unwrap();
+        assert_eq!((ring.starts.len(), bare.starts.len()), (RING_CAPACITANCE_STARTS.len(), RING_LIGHT_STARTS.len()));
+        // Each valley screened by a probe of its own: the snubbed and the bare node's.
+        let c = SWITCH_NODE_CAPACITANCE_STARTS[0];
+        assert_eq!((ring.probe.switch_node_capacitance, ring.probe.switch_node_damping), (c, (nominal.l / c).sqrt()));
+        let c = RING_LIGHT_STARTS[0];
+        assert_eq!((bare.probe.switch_node_capacitance, bare.probe.switch_node_damping), (c, LIGHT_DAMPING * (nominal.l / c).sqrt()));
+        for (start, (c, share)) in ring.starts.iter().chain(&bare.starts).zip(shares) {
             assert!(start.switch_node_ring && start.switch_node_capacitance == c && start.switch_node_damping == share * (nominal.l / c).sqrt(), "{start:?}");
         }
         // A ring whose own damping ran to zero: refitted undamped from where its fit ended.
         let ended = Params { switch_node_capacitance: 0.4e-9, switch_node_damping: 1e-6, ..ring.starts[0] };
         let bare = ring.undamped_from(ended);
         assert_eq!(bare.added(), [Free::SwitchNodeCapacitance]);
-        assert_eq!((bare.starts, bare.apart), (vec![Params { switch_node_damping: 0.0, ..ended }], Vec::new()));
+        assert!(bare.apart.is_none());
+        assert_eq!(bare.starts, [Params { switch_node_damping: 0.0, ..ended }]);
         // Undamped beside a newcomer that unpins its damping: the damping fixed at zero, in the
         // model and as a step of a path rebuilt from its effects.
         let undamped = ring.undamped();
         assert_eq!(undamped.stack.free, [Free::Cl, Free::DiodeDrop, Free::SwitchNodeCapacitance]);
-        assert!(undamped.starts.iter().chain(&undamped.apart).chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
+        let apart = undamped.apart.iter().flat_map(|v| v.starts.iter().chain([&v.probe]));
+        assert!(undamped.starts.iter().chain(apart).chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
         let mut fit = finding(
             "switch_node_ring",
             &Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] },
