@@ -97,6 +97,22 @@ fn assert_final_cl_holds_truth(dx: &serde_json::Value, truth: &serde_json::Value
     [lo, hi]
 }
 
+/// Asserts that the final model of the diagnosis `dx` leaves less than `floors` noise floors
+/// held out.
+fn assert_final_within_floors(dx: &serde_json::Value, floors: f64) {
+    let last = dx["selected"].as_array().unwrap().last().expect("a selected effect");
+    let (left, floor) = (last["rms_after"].as_f64().unwrap(), dx["where"]["noise_floor_rms"].as_f64().unwrap());
+    assert!(left < floors * floor, "{left} V left, {:.2} floors", left / floor);
+}
+
+/// Asserts that a ringing switch node's fitted capacitance `csw` lies between a harness
+/// dataset's own node capacitance and that plus its diode's junction (`truth`'s settings).
+fn assert_node_of_harness_diode(csw: f64, truth: &serde_json::Value) {
+    let settings = &truth["settings"];
+    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
+    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
+}
+
 /// `buckid identify --data` on a third-generator fixture: its JSON, the truth, and what it printed.
 fn identify_third(name: &str) -> (serde_json::Value, serde_json::Value, String) {
     let (data, truth) = third_fixture(name);
@@ -771,13 +787,9 @@ fn a_late_reading_that_unpins_a_rings_damping_is_taken_with_the_ring_undamped() 
     assert!(stdout.contains("its switch node ringing with L)"), "{stdout}");
     let ring = &dx["selected"][1]["params"];
     assert!(ring.get("switch_node_damping").is_none(), "{ring}");
-    let settings = &truth["settings"];
-    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
-    let csw = ring["switch_node_capacitance"].as_f64().unwrap();
-    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
-    assert_within("the reading's instant [s]", selected_param(&dx, "sample_delay"), &settings["adc_delay"], 0.05);
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
-    assert!(last["rms_after"].as_f64().unwrap() < 1.1 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_node_of_harness_diode(ring["switch_node_capacitance"].as_f64().unwrap(), &truth);
+    assert_within("the reading's instant [s]", selected_param(&dx, "sample_delay"), &truth["settings"]["adc_delay"], 0.05);
+    assert_final_within_floors(&dx, 1.1);
     assert_final_cl_holds_truth(&dx, &truth, 1.5);
 }
 
@@ -794,15 +806,12 @@ fn a_bare_nodes_ring_is_fitted_from_light_damping_apart_from_a_snubbers() {
     let names = selected_names(&dx);
     assert!(names.contains(&"diode_drop") && names.contains(&"switch_node_ring"), "{names:?}");
     let ring = &dx["selected"].as_array().unwrap().iter().find(|e| e["name"] == "switch_node_ring").unwrap()["params"];
-    let settings = &truth["settings"];
-    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
     let csw = ring["switch_node_capacitance"].as_f64().unwrap();
-    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
+    assert_node_of_harness_diode(csw, &truth);
     // Lightly damped: the loop's ohm or so against the ring's √(L/C) of about 57 Ω.
     let damping = ring["switch_node_damping"].as_f64().unwrap();
     assert!(damping < 0.05 * (3.3e-6 / csw).sqrt(), "{damping} Ω");
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
-    assert!(last["rms_after"].as_f64().unwrap() < 1.25 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_final_within_floors(&dx, 1.25);
     assert_final_cl_holds_truth(&dx, &truth, 10.0);
 }
 
@@ -820,8 +829,7 @@ fn a_step_with_nothing_material_fits_the_next_most_promising() {
     assert!(["diode_drop", "switch_node_ring", "diode_resistance"].iter().all(|n| names.contains(n)), "{names:?}");
     let slope = selected_param(&dx, "diode_resistance").as_f64().unwrap();
     assert!((0.02..0.12).contains(&slope), "{slope} Ω");
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
-    assert!(last["rms_after"].as_f64().unwrap() < 1.25 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_final_within_floors(&dx, 1.25);
     assert_final_cl_holds_truth(&dx, &truth, 1.5);
 }
 
@@ -834,12 +842,8 @@ fn a_step_with_nothing_material_fits_the_next_most_promising() {
 #[test]
 fn a_bare_nodes_ring_is_screened_by_a_lightly_damped_probe() {
     let (dx, truth) = diagnose_generated(generated_fixture("harness", "diode-node-probe-4040-27"));
-    let settings = &truth["settings"];
-    let (own, junction) = (settings["csw"].as_f64().unwrap(), settings["diode_cjo"].as_f64().unwrap());
-    let csw = selected_param(&dx, "switch_node_capacitance").as_f64().unwrap();
-    assert!((own..own + junction).contains(&csw), "node {csw:e} F for {own:e} + {junction:e}");
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
-    assert!(last["rms_after"].as_f64().unwrap() < 1.6 * dx["where"]["noise_floor_rms"].as_f64().unwrap(), "{}", last["rms_after"]);
+    assert_node_of_harness_diode(selected_param(&dx, "switch_node_capacitance").as_f64().unwrap(), &truth);
+    assert_final_within_floors(&dx, 1.6);
     assert_final_cl_holds_truth(&dx, &truth, 1.05);
 }
 

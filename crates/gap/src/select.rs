@@ -71,8 +71,8 @@ pub(crate) const RING_CAPACITANCE_STARTS: [f64; 2] = [1.5e-9, 5e-9];
 /// [`LIGHT_DAMPING`] of `√(L/C)`. Its fit has a valley per number of ring cycles the blocked
 /// time holds, so the starts span a few hundred pF to a few nF: a harness diode buck whose
 /// node holds 1.2 nF, started at 1.5 nF behind `√(L/C)`, fitted 12.5 nF behind 13 Ω with Cl on
-/// its bound, 8.6 mV held out; from 1 nF behind 1.1 Ω it found 1.01 nF behind 1.2 Ω at 3.7 mV
-/// (floor 3.4), Cl 1.00 µF of 1.22.
+/// its bound, leaving 8.6 mV on the estimation data; from 1 nF behind 1.1 Ω it found 1.01 nF
+/// behind 1.2 Ω, leaving 3.7 mV (the floor 3.4), Cl 1.00 µF of 1.22.
 pub(crate) const RING_LIGHT_STARTS: [f64; 4] = [250e-12, 500e-12, 1e-9, 2e-9];
 
 /// The damping of a bare node's ring as a share of `√(L/C)`: the loop's few hundred mΩ to an
