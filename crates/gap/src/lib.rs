@@ -507,7 +507,15 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
                 let ends_at_floor = other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false));
                 contradicts_il(other).is_none() && if misses { (other.len() <= selected.len() || ends_at_floor) && closes_of_left(other, left).is_some() } else { ends_at_floor }
             };
-            match joint::from_nominal(data, nominal, &selected, gap_left, n_est, opts.holdout, &baseline) {
+            // Of the kind its first steps took: an effect of the kind (a dead time) taken while
+            // going on past a sequence's length may stand in for what an earlier step took (a
+            // harness buck with L 16 % low went on from an inductor's saturation, Rc, the
+            // switches and C to the late reading, a 1.8 ns dead time and a filter, 1.15 floors
+            // up with Cl 5.7 [5.1, 6.8] µF for 7.35; the joint model from the nominal values,
+            // kept synchronous without dead time, holds the switches, L −15.9 % and the late
+            // reading at the floor, Cl 7.36 [7.28, 7.45] µF).
+            let first_steps = &selected[..selected.len().min(select::MAX_EFFECTS)];
+            match joint::from_nominal(data, nominal, first_steps, gap_left, n_est, opts.holdout, &baseline) {
                 Some(joint::FromNominal::Closes(other)) if better(&other) => {
                     let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
                     selection_ended = format!(
