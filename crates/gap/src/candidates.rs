@@ -175,11 +175,16 @@ fn best_of<K>(tries: impl Iterator<Item = (K, Result<Candidate, String>)>) -> Re
 fn run_also_from(data: &DataSet, nominal: &Params, opts: IdentifyOptions, cl: Option<f64>) -> Result<Candidate, String> {
     let grid = run(data, nominal, opts.clone());
     let Some(cl) = cl else { return grid };
-    let from_nominal = run(data, nominal, IdentifyOptions { cl_guess: Some(cl), ..opts });
+    less_estimation_error(grid, run(data, nominal, IdentifyOptions { cl_guess: Some(cl), ..opts }))
+}
+
+/// Of two fits of one model from different starts, the one that leaves the less estimation
+/// error (`vout`'s residual); the one that succeeded where the other failed (`a` on a tie).
+pub(crate) fn less_estimation_error(a: Result<Candidate, String>, b: Result<Candidate, String>) -> Result<Candidate, String> {
     let error = |c: &Candidate| c.fit.sigma.first().copied().unwrap_or(f64::INFINITY);
-    match (grid, from_nominal) {
-        (Ok(g), Ok(n)) => Ok(if error(&n) < error(&g) { n } else { g }),
-        (g, n) => g.or(n),
+    match (a, b) {
+        (Ok(a), Ok(b)) => Ok(if error(&b) < error(&a) { b } else { a }),
+        (a, b) => a.or(b),
     }
 }
 

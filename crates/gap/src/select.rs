@@ -507,9 +507,8 @@ impl Extension {
         let cand = match &self.apart {
             None => fit(&self.starts)?,
             Some(valley) => {
-                let error = |c: &Result<Candidate, String>| c.as_ref().ok().and_then(|c| c.fit.sigma.first().copied()).unwrap_or(f64::INFINITY);
-                let (a, b) = rayon::join(|| fit(&self.starts), || fit(&valley.starts));
-                if error(&b) < error(&a) { b } else { a }?
+                let (own, apart) = rayon::join(|| fit(&self.starts), || fit(&valley.starts));
+                crate::candidates::less_estimation_error(own, apart)?
             }
         };
         self.assess(cand, data, nominal)
