@@ -850,6 +850,15 @@ pub fn closed_percent(rms_before: f64, rms_after: f64, floor: f64) -> Option<f64
     gap_above(rms_before, floor).then(|| 100.0 * (rms_before.powi(2) - rms_after.powi(2)) / (rms_before.powi(2) - floor.powi(2)))
 }
 
+#[cfg(test)]
+impl Baseline {
+    /// A baseline for unit tests: 3001 samples (2000 behind the floor, 1000 held out), a unit
+    /// swing, a 1 % tolerance, RL 0.1 Ω and the duty over 0.4–0.6.
+    pub(crate) fn for_tests(rms: f64, cl: f64, floor: Option<f64>) -> Self {
+        Self { nrmse: 1.0, rms, cl, floor, floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] }
+    }
+}
+
 impl Baseline {
     /// Shrink of the held-out NRMSE [%].
     pub(crate) fn shrink_percent(&self, nrmse_after: f64) -> f64 {
@@ -1522,7 +1531,7 @@ pub(crate) mod tests {
     /// (not converged), else with none closing a material share.
     #[test]
     fn nothing_found_says_why() {
-        let baseline = Baseline { nrmse: 0.99, rms: 0.18, cl: 1.0, floor: Some(3.3e-3), floor_samples: 2000, held_out: 1000, swing: 0.18, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline { nrmse: 0.99, swing: 0.18, ..Baseline::for_tests(0.18, 1.0, Some(3.3e-3)) };
         let on_bound = baseline.nothing_found(Some(("diode_drop", 99.2)));
         assert!(on_bound.contains("diode_drop closes 99.2 % of it but ends on a bound of its range, not converged"), "{on_bound}");
         assert!(baseline.nothing_found(None).contains("yet no candidate closes 25 % of it"));
@@ -1613,7 +1622,7 @@ pub(crate) mod tests {
     /// a probe, one 21 % off is not, either way round.
     #[test]
     fn only_values_beyond_the_device_are_said_to_stand_in() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline::for_tests(0.2, 1e-6, Some(4e-3));
         let with = |key: &str, value: f64| {
             let mut fit = finding("any", &baseline, 0.01, 0.2);
             fit.params.insert(key.to_string(), value);
@@ -1660,7 +1669,7 @@ pub(crate) mod tests {
     /// against the better fit itself, nothing changes.
     #[test]
     fn a_fit_worse_than_the_better_nominal_is_never_material() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline::for_tests(0.2, 1e-6, Some(4e-3));
         let fit = |rms_after: f64, against: f64| finding("dcm", &baseline, rms_after, against);
         // 97 % of a reference's 2 V gap, 29 % worse than the grey-box nominal's 0.2 V.
         let mut worse = fit(0.236, 2.0);
@@ -1683,7 +1692,7 @@ pub(crate) mod tests {
     /// for the circuit, one closing 99 % does not; a circuit effect never waits.
     #[test]
     fn a_readings_effect_waits_for_the_circuit_unless_it_explains_all() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.2, cl: 1e-6, floor: Some(4e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline::for_tests(0.2, 1e-6, Some(4e-3));
         let part = (0.4f64 * 0.2f64.powi(2) + 0.6 * 4e-3f64.powi(2)).sqrt();
         let all = (0.01f64 * 0.2f64.powi(2) + 0.99 * 4e-3f64.powi(2)).sqrt();
         for name in ["sensor_filter", "sensor_offset", "sensor_gain"] {
@@ -1699,7 +1708,7 @@ pub(crate) mod tests {
     /// material on 1 V; within the floor nothing is.
     #[test]
     fn a_gap_is_material_above_the_floor_and_the_swing() {
-        let on = |floor: f64, swing: f64| Baseline { nrmse: 1.0, rms: 1.0, cl: 1e-6, floor: Some(floor), floor_samples: 2000, held_out: 1000, swing, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let on = |floor: f64, swing: f64| Baseline { swing, ..Baseline::for_tests(1.0, 1e-6, Some(floor)) };
         assert_eq!(on(0.2e-3, 1.0).misses_materially(0.36e-3), Some(false));
         assert_eq!(on(0.2e-3, 0.4).misses_materially(0.36e-3), Some(true));
         assert_eq!(on(2e-3, 1.0).misses_materially(3.6e-3), Some(true));

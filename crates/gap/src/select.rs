@@ -1380,7 +1380,7 @@ mod tests {
     /// the model.
     #[test]
     fn an_effect_that_alone_beat_the_model_so_far_is_fitted_past_the_screen() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline::for_tests(0.02, 3e-6, Some(2.9e-3));
         let nominal = Params::default();
         let offered = || Stack::nominal(&nominal, 3e-6, true).extensions(&nominal, true, 0.0, 0.0);
         let alone =
@@ -1407,7 +1407,7 @@ mod tests {
     /// whose Cl ran onto a bound of its range.
     #[test]
     fn a_stuck_paths_alternatives_leave_out_first_steps_whose_cl_ran_onto_a_bound() {
-        let baseline = Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] };
+        let baseline = Baseline::for_tests(0.02, 3e-6, Some(2.9e-3));
         let mut effects = [
             finding("dead_time", &baseline, 3.0e-3, 0.02),
             finding("load_esr", &baseline, 3.5e-3, 0.02),
@@ -1474,7 +1474,7 @@ mod tests {
         assert!(undamped.starts.iter().chain(apart).chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
         let mut fit = finding(
             "switch_node_ring",
-            &Baseline { nrmse: 1.0, rms: 0.02, cl: 3e-6, floor: Some(2.9e-3), floor_samples: 2000, held_out: 1000, swing: 1.0, tolerance: 0.01, rl: 0.1, duty_range: [0.4, 0.6] },
+            &Baseline::for_tests(0.02, 3e-6, Some(2.9e-3)),
             3e-3,
             0.02,
         );
