@@ -1472,12 +1472,7 @@ mod tests {
         assert_eq!(undamped.stack.free, [Free::Cl, Free::DiodeDrop, Free::SwitchNodeCapacitance]);
         let apart = undamped.apart.iter().flat_map(|v| v.starts.iter().chain([&v.probe]));
         assert!(undamped.starts.iter().chain(apart).chain([&undamped.probe]).all(|p| p.switch_node_ring && p.switch_node_damping == 0.0));
-        let mut fit = finding(
-            "switch_node_ring",
-            &Baseline::for_tests(0.02, 3e-6, Some(2.9e-3)),
-            3e-3,
-            0.02,
-        );
+        let mut fit = finding("switch_node_ring", &Baseline::for_tests(0.02, 3e-6, Some(2.9e-3)), 3e-3, 0.02);
         fit.params = BTreeMap::from([("switch_node_capacitance".to_string(), 1e-9), ("switch_node_damping".to_string(), 3.0)]);
         let rebuilt = |fit: &EffectFit| Stack::nominal(&diode, 10e-6, true).with(fit).unwrap();
         assert_eq!((rebuilt(&fit).free, rebuilt(&fit).params.switch_node_damping), (vec![Free::Cl, Free::SwitchNodeCapacitance, Free::SwitchNodeDamping], 3.0));
