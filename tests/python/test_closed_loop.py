@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from fmu_harness import SWITCHED, T, open_slave, prbs_duty, vr
+from fmu_harness import SWITCHED, T, messages, open_slave, prbs_duty, vr
 
 LOOP = {"control": 2, "delay": 1, "dpwm_bits": 10, "adc_noise": 2e-3, "noise_seed": 5, "vref": 5.0}
 
@@ -64,3 +64,32 @@ def test_cli_identifies_cl_in_closed_loop(fmu_path, buckid_bin, tmp_path):
     assert result["excitation"] == {"closed_loop": True, "signal": "duty_dither", "levels": [-0.02, 0.02],
                                     "recorded_duty": "duty_applied", "load_noise": 0.2}
     assert "closed loop: PRBS -0.02/0.02 on duty_dither" in proc.stdout
+
+
+def test_the_adc_reads_at_its_instant_within_the_period(fmu_dir, model_description):
+    """`adc_delay`: the FMU's ADC reads vout and il a quarter period after each period start, so
+    `vout_adc` and `il_adc` hold what fmpy reads from the instantaneous outputs there (to 1e-12),
+    not the period start's il (the ramp in between); at the period start by default; an instant
+    past the period is an error that names it."""
+    md = model_description
+    refs = [vr(md, n) for n in ("vout", "il", "vout_adc", "il_adc")]
+    duty = prbs_duty(120)
+    for delay in (T / 4, 0.0):
+        with open_slave(fmu_dir, md, f"adc-{delay}", start={"mode": SWITCHED, "adc_delay": delay}) as fmu:
+            starts, quarters, readings = [], [], []
+            for k, d in enumerate(duty):
+                fmu.setReal([vr(md, "duty")], [float(d)])
+                starts.append(fmu.getReal(refs)[:2])
+                fmu.doStep(k * T, T / 4)
+                quarters.append(fmu.getReal(refs)[:2])
+                fmu.doStep(k * T + T / 4, 3 * T / 4)
+                readings.append(fmu.getReal(refs)[2:])
+        seen = np.array(quarters if delay > 0 else starts[1:] + [starts[-1]])
+        read = np.array(readings)
+        assert np.abs(read[:-1] - seen[:-1]).max() <= 1e-12, delay
+        # The inductor's ramp over a quarter period tells the two instants apart.
+        assert np.abs(np.array(quarters)[:, 1] - np.array(starts)[:, 1]).min() > 0.05
+    with open_slave(fmu_dir, md, "adc-late", start={"mode": SWITCHED, "adc_delay": 2 * T}) as fmu:
+        with pytest.raises(Exception):
+            fmu.doStep(0.0, T)
+    assert any("adc_delay" in m for m in messages("adc-late")), messages("adc-late")

@@ -218,6 +218,8 @@ pub struct Converter {
     sat_region: i8,
     /// The next piece starts a new period and must latch the duty first.
     at_period_start: bool,
+    /// The ADC reads later in this period (`adc_delay`, switched mode), not yet done.
+    adc_pending: bool,
     /// Averages `[il, vc, vcl, ic]` over the last completed period.
     last_average: Vector4<f64>,
     /// Average load current over the last completed period [A].
@@ -260,6 +262,7 @@ impl Converter {
             at_edge: true,
             sat_region: 0,
             at_period_start: true,
+            adc_pending: false,
             last_average: Vector4::zeros(),
             last_io_average: 0.0,
             digital: Digital::default(),
@@ -449,6 +452,7 @@ impl Converter {
             VarId::AdcVfs => d.adc_vfs,
             VarId::AdcIfs => d.adc_ifs,
             VarId::AdcNoise => d.adc_noise,
+            VarId::AdcDelay => d.adc_delay,
             VarId::NoiseSeed => d.noise_seed as f64,
             VarId::DpwmBits => f64::from(d.dpwm_bits),
             VarId::SwitchResistance => p.switch_resistance,
@@ -513,6 +517,7 @@ impl Converter {
                     VarId::AdcVfs => d.adc_vfs = value,
                     VarId::AdcIfs => d.adc_ifs = value,
                     VarId::AdcNoise => d.adc_noise = value,
+                    VarId::AdcDelay => d.adc_delay = value,
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
                 }
                 if var.causality == variables::Causality::Parameter {
@@ -566,6 +571,9 @@ impl Converter {
             return Err(ModelError::BadStep(h));
         }
         let period = self.params.period();
+        if self.digital.adc_delay >= period {
+            return Err(ModelError::OutOfRange { name: "adc_delay", value: self.digital.adc_delay, range: format!("below the switching period 1/fs = {period:e} s") });
+        }
         let snap = SNAP * period;
         let mut remaining = h;
         loop {
@@ -576,12 +584,16 @@ impl Converter {
                 self.cl_now = self.params.cl_for_period(self.x[2], self.vcl_last_start);
                 self.vcl_last_start = Some(self.x[2]);
                 self.at_period_start = false;
+                self.adc_pending = self.digital.adc_delay > 0.0 && self.mode == Mode::Switched;
             }
             if self.at_edge {
                 self.slew = self.slew_at_edge(period);
                 self.at_edge = false;
             }
-            let (gate, event) = self.gate(period);
+            let (gate, edge) = self.gate(period);
+            // The ADC's reading within the period, where it comes before the next edge.
+            let reading = self.adc_pending && self.digital.adc_delay < edge;
+            let event = if reading { self.digital.adc_delay } else { edge };
             let to_event = event - self.phase;
             if remaining + snap < to_event {
                 // The step ends before the next event: advance exactly, however short.
@@ -592,8 +604,13 @@ impl Converter {
             self.advance(to_event, gate);
             remaining -= to_event;
             self.phase = event;
-            self.at_edge = true;
-            if event >= period {
+            if reading {
+                self.adc_pending = false;
+                self.digital.sample(self.vout(), self.x[0], self.period_index);
+            } else {
+                self.at_edge = true;
+            }
+            if !reading && event >= period {
                 self.last_average = self.z / period;
                 self.last_io_average = self.io_integral / period;
                 self.z = Vector4::zeros();
@@ -602,7 +619,11 @@ impl Converter {
                 self.at_period_start = true;
                 self.pwm_high_before = self.latched_duty >= 1.0;
                 self.period_index += 1;
-                self.digital.sample(self.vout(), self.x[0], self.period_index);
+                // Read at the period start (the ADC's instant within the period is switched
+                // mode's).
+                if self.digital.adc_delay == 0.0 || self.mode == Mode::Averaged {
+                    self.digital.sample(self.vout(), self.x[0], self.period_index);
+                }
             }
             // What is left after an event within the snap tolerance is the master's rounding
             // (e.g. a sum of steps of T), not time to simulate: the next period must latch the

@@ -43,6 +43,9 @@ pub struct Digital {
     pub adc_noise: f64,
     /// Seed of that noise (the sequence is a pure function of seed and period index).
     pub noise_seed: u64,
+    /// Instant of the reading after each period start [s] (0: at the period start, the
+    /// previous period's end).
+    pub adc_delay: f64,
     /// DPWM resolution in bits (0: ideal).
     pub dpwm_bits: u32,
     integral: f64,
@@ -65,6 +68,7 @@ impl Default for Digital {
             adc_ifs: 32.0,
             adc_noise: 0.0,
             noise_seed: 1,
+            adc_delay: 0.0,
             dpwm_bits: 0,
             integral: 0.0,
             e_prev: 0.0,

@@ -972,3 +972,26 @@ fn a_ring_beyond_the_input_is_clamped_by_the_high_sides_body_diode() {
     let want = (clamp - vout) / l;
     assert!((slope / want - 1.0).abs() < 0.02, "dil/dt {slope} A/s at the clamp vs {want} A/s");
 }
+
+/// The ADC reads `adc_delay` into each period: after a period, `vout_adc` and `il_adc` hold the
+/// outputs as they were a quarter period in (bit for bit: the host's step ending there and the
+/// ADC's instant are the same event), not the period start's (the inductor's ramp in between);
+/// an instant past the period is an error naming it.
+#[test]
+fn the_adc_reads_at_its_instant_within_the_period() {
+    let quarter = T / 4.0;
+    let mut conv = converter(Params::default(), Mode::Switched, 0.5, 1.0);
+    conv.set(VarId::AdcDelay, quarter).unwrap();
+    settle(&mut conv, 20);
+    for _ in 0..5 {
+        let il_start = conv.get_real(VarId::Il);
+        conv.step(quarter).unwrap();
+        let (vout, il) = (conv.get_real(VarId::Vout), conv.get_real(VarId::Il));
+        conv.step(T - quarter).unwrap();
+        assert_eq!((conv.get_real(VarId::VoutAdc), conv.get_real(VarId::IlAdc)), (vout, il));
+        assert!((il - il_start).abs() > 0.1, "il {il} vs {il_start} at the period start");
+    }
+    conv.set(VarId::AdcDelay, 2.0 * T).unwrap();
+    let err = conv.step(T).unwrap_err().to_string();
+    assert!(err.contains("adc_delay"), "{err}");
+}

@@ -59,6 +59,7 @@ pub enum VarId {
     LowSideRatio,
     SwitchNodeRing,
     SwitchNodeDamping,
+    AdcDelay,
 }
 
 /// FMI causality.
@@ -214,6 +215,7 @@ pub const VARIABLES: &[Variable] = &[
         description: "Once the diode blocks (DCM), il rings with switch_node_capacitance (the node swings about vout until the next turn-on or a diode clamp) instead of holding at 0 (switched mode only; not with esl)",
     },
     real(VarId::SwitchNodeDamping, "switch_node_damping", Parameter, "Ohm", (0.0, 1e4), Some(0.0), "Resistance in series with switch_node_capacitance (an RC snubber's resistor): damps the ring, and at an edge the node jumps by switch_node_damping |il| before it slews (switched mode only)"),
+    real(VarId::AdcDelay, "adc_delay", Parameter, "s", (0.0, 1.0), Some(0.0), "Instant of the ADC's reading after each period start, below the period: vout_adc, il_adc and the controller read vout and il there (0 = at the period start; switched mode only)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
