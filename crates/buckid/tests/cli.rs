@@ -633,6 +633,43 @@ fn simulate_drives_our_fmu_with_stepped_duty_to_its_dc_points() {
     assert_clean_failure(&o, "not a finite number");
 }
 
+/// Our FMU with its ADC reading 0.2 T after each period start (`adc_delay`) and 2 mV of noise
+/// on vout there, run by `simulate` on a PRBS duty and recorded from its ADC (a period's
+/// readings and its applied duty arrive at its end), told nothing: `diagnose` names the late
+/// reading alone, at the ADC's instant within 1 %, and Cl's interval holds the FMU's.
+#[test]
+fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
+    let (period, warmup, n) = (1.0 / 330e3, 200, 3001);
+    let delay = 0.2 * period;
+    let dir = tempfile::tempdir().unwrap();
+    let duties = estimator::experiment::Prbs::default().duties(warmup + n + 1).unwrap();
+    let input = dir.path().join("duty.csv");
+    let rows: String = duties.iter().enumerate().map(|(k, d)| format!("{:e},{d}\n", k as f64 * period)).collect();
+    std::fs::write(&input, format!("time,duty\n{rows}")).unwrap();
+    let out = dir.path().join("adc.csv");
+    let (stop, step, adc) = (format!("{:e}", (warmup + n + 1) as f64 * period), format!("{period:e}"), format!("adc_delay={delay:e}"));
+    let sets = ["mode=2", "Cl=4.7e-6", &adc, "adc_noise=2e-3", "noise_seed=3"].map(|s| ["--set", s]).concat();
+    let outputs = ["duty_applied", "vout_adc", "il_adc"].map(|s| ["--output", s]).concat();
+    let args =
+        [&["simulate", "--fmu", buck_fmu().to_str().unwrap(), "--input", input.to_str().unwrap(), "--stop", &stop, "--step", &step][..], &sets, &outputs, &["--out", out.to_str().unwrap()]].concat();
+    let o = buckid(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let recorded: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    // Row k of the data: period k's duty and readings, recorded at its end (row k + 1).
+    let data_rows: String = (0..n).map(|k| &recorded[warmup + k + 1]).enumerate().map(|(k, r)| format!("{:e},{},12,1,{},{}\n", k as f64 * period, r[1], r[2], r[3])).collect();
+    let data = dir.path().join("data.csv");
+    std::fs::write(&data, format!("# fs = 330000\n# U = 12\ntime,duty,vin,io,vout,il\n{data_rows}")).unwrap();
+    let dx_path = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", dx_path.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dx = json(&dx_path);
+    assert_eq!(selected_names(&dx), ["sample_delay"], "{}", dx["selection_ended"]);
+    let found = selected_param(&dx, "sample_delay").as_f64().unwrap();
+    assert!((found / delay - 1.0).abs() < 0.01, "sample_delay {found:e} for the ADC's {delay:e}");
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
+}
+
 /// A clean point-of-load capture from the third ngspice generator (5 V, 1.2 µH, 57 µF with
 /// 7.3 mΩ, 538 kHz, 5.3 A, 73 µF of load, vout alone), told nothing, is clean. The nominal fit
 /// ranks Cl's grid on the first samples and starts from the best point alone; here it ended at
