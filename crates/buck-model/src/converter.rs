@@ -57,9 +57,9 @@ pub struct Outputs {
     pub il_avg: f64,
     /// Duty that drove the switch in the last latched period.
     pub duty_applied: f64,
-    /// ADC reading of `vout` at the last period start [V].
+    /// The ADC's latest reading of `vout` (at the period start, or `adc_delay` into the period) [V].
     pub vout_adc: f64,
-    /// ADC reading of `il` at the last period start [A].
+    /// The ADC's latest reading of `il` (at the period start, or `adc_delay` into the period) [A].
     pub il_adc: f64,
 }
 

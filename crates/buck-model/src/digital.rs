@@ -116,7 +116,7 @@ impl Digital {
         self.sample(vout, il, 0);
     }
 
-    /// The ADC conversion at the start of period `k`.
+    /// The ADC conversion of period `k` (its noise a function of `k`).
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
         let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
         self.reading = [quantize(noisy, 0.0, self.adc_vfs, self.adc_bits), quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits)];
