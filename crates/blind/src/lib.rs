@@ -124,7 +124,9 @@ pub struct Case {
 /// every effect of the design table (`switching_ripple`: clean switched data against the
 /// averaged model).
 pub fn plant_effects() -> impl Iterator<Item = &'static str> {
-    // The plant samples at the period start: a late acquisition comes from the harness only.
+    // The plant's datasets are read at the period start (its ADC's `adc_delay` is not drawn:
+    // `run` takes a period's readings at its start): a late acquisition comes from the harness
+    // only.
     // A diode's slope resistance, the switch node's capacitance and unequal switches refine a
     // diode, a dead time or the switches' resistance; alone they change nothing. The plant's
     // readings are exact: a sensor's calibration comes from the harness only, an anti-alias

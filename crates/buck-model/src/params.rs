@@ -97,8 +97,9 @@ pub struct Params {
     /// With `load_esr` it sits at the node, across the series `Cl` + ESR branch. Both modes.
     pub rload: f64,
     /// Instant after each period start at which the outputs are sampled [s] (a data
-    /// acquisition or ADC that reads a little late). Not a circuit value and not an FMU
-    /// parameter: the estimator's plant simulator reads `vout` there (`sample_delay` effect).
+    /// acquisition or ADC that reads a little late). Not a circuit value: the estimator's plant
+    /// simulator reads `vout` there (`sample_delay` effect). The FMU's own ADC reads at its
+    /// `adc_delay` ([`crate::digital::Digital::adc_delay`]), which `vout_adc` and `il_adc` report.
     pub sample_delay: f64,
     /// How far the sampling instant moves with the duty, as a share of the on-time's change:
     /// the outputs are sampled `sample_delay + sample_duty_share·(D − ½)·T` after the period
