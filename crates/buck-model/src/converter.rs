@@ -584,7 +584,7 @@ impl Converter {
                 self.cl_now = self.params.cl_for_period(self.x[2], self.vcl_last_start);
                 self.vcl_last_start = Some(self.x[2]);
                 self.at_period_start = false;
-                self.adc_pending = self.digital.adc_delay > 0.0 && self.mode == Mode::Switched;
+                self.adc_pending = self.adc_reads_within_period();
             }
             if self.at_edge {
                 self.slew = self.slew_at_edge(period);
@@ -619,9 +619,7 @@ impl Converter {
                 self.at_period_start = true;
                 self.pwm_high_before = self.latched_duty >= 1.0;
                 self.period_index += 1;
-                // Read at the period start (the ADC's instant within the period is switched
-                // mode's).
-                if self.digital.adc_delay == 0.0 || self.mode == Mode::Averaged {
+                if !self.adc_reads_within_period() {
                     self.digital.sample(self.vout(), self.x[0], self.period_index);
                 }
             }
@@ -634,6 +632,11 @@ impl Converter {
         }
         self.time += h;
         Ok(())
+    }
+
+    /// Whether the ADC reads `adc_delay` into each period (switched mode), else at its start.
+    fn adc_reads_within_period(&self) -> bool {
+        self.digital.adc_delay > 0.0 && self.mode == Mode::Switched
     }
 
     /// The gate in force at the current phase and the end of its interval (the next fixed
