@@ -657,9 +657,21 @@ fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
     let text = std::fs::read_to_string(&out).unwrap();
     let recorded: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
     // Row k of the data: period k's duty and readings, recorded at its end (row k + 1).
-    let data_rows: String = (0..n).map(|k| &recorded[warmup + k + 1]).enumerate().map(|(k, r)| format!("{:e},{},12,1,{},{}\n", k as f64 * period, r[1], r[2], r[3])).collect();
+    let periods = &recorded[warmup + 1..warmup + n + 1];
+    let column = |i: usize| periods.iter().map(|r| r[i]).collect::<Vec<f64>>();
+    let meta = [("fs", "330000"), ("U", "12")].map(|(k, v)| (k.to_string(), v.to_string())).into();
+    let data_set = estimator::data::DataSet {
+        time: (0..n).map(|k| k as f64 * period).collect(),
+        duty: column(1),
+        vin: vec![12.0; n],
+        io: vec![1.0; n],
+        vout: column(2),
+        il: Some(column(3)),
+        meta,
+        ..estimator::data::DataSet::default()
+    };
     let data = dir.path().join("data.csv");
-    std::fs::write(&data, format!("# fs = 330000\n# U = 12\ntime,duty,vin,io,vout,il\n{data_rows}")).unwrap();
+    data_set.write_csv(&data).unwrap();
     let dx_path = dir.path().join("dx.json");
     let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", dx_path.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
