@@ -200,9 +200,14 @@ impl Host {
         Host { vars, guid: CString::new(guid).unwrap(), rng: Rng(seed), live: Vec::new(), wrong: Vec::new(), calls: 0, logs: true, steps_ok: 0 }
     }
 
+    /// A real variable's value as the host last set it (else its start).
+    fn real(&self, m: &Model, name: &str) -> f64 {
+        let v = self.vars.iter().find(|v| v.name == name).unwrap();
+        m.values.get(&v.vr).copied().unwrap_or(v.start)
+    }
+
     fn fs(&self, m: &Model) -> f64 {
-        let fs = self.vars.iter().find(|v| v.name == "fs").unwrap();
-        m.values.get(&fs.vr).copied().unwrap_or(fs.start)
+        self.real(m, "fs")
     }
 
     /// Checks a status; an error must come with a logged message (there is an instance to log).
@@ -483,7 +488,8 @@ impl Host {
         };
         // The FMU takes at most MAX_PERIODS_PER_STEP periods per call (a hang guard).
         let periods = h * self.fs(m);
-        let bad_step = !(h > 0.0 && h.is_finite()) || t.is_nan() || (t - m.time).abs() > 0.5 * h;
+        // (The ADC's instant must lie within the period, which the XML's range cannot say.)
+        let bad_step = !(h > 0.0 && h.is_finite()) || t.is_nan() || (t - m.time).abs() > 0.5 * h || self.real(m, "adc_delay") >= period;
         let mut want = if !Self::allowed(m, &[StepComplete]) || bad_step || periods > buck_fmu::instance::MAX_PERIODS_PER_STEP {
             ERROR
         } else {

@@ -2,7 +2,7 @@
 use nalgebra::{Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 
-use crate::digital::{Control, Digital};
+use crate::digital::{Control, Digital, FILTER_PIECES};
 use crate::flow::{Ladder, Point, Transition, Watch, pad};
 use crate::lti::Lti;
 use crate::variables::{self, Type, VarId};
@@ -339,7 +339,7 @@ impl Converter {
     }
 
     /// Puts the circuit at the start of a period in the given state, e.g. from an initial
-    /// condition computed elsewhere.
+    /// condition computed elsewhere (the ADC's filter settled at its `vout`).
     pub fn set_state(&mut self, s: State) {
         let ic = if self.params.esl > 0.0 { s.ic } else { 0.0 };
         self.x = Vector4::new(s.il, s.vc, s.vo, ic);
@@ -356,6 +356,7 @@ impl Converter {
         self.sat_region = 0;
         self.cl_now = self.params.cl_at(s.vo);
         self.vcl_last_start = None;
+        self.digital.settle_filter(self.vout());
         self.last_average = self.x;
         self.last_io_average = self.io_held;
     }
@@ -387,6 +388,12 @@ impl Converter {
     /// Output (node) voltage of the current state with the load current of the latest piece.
     fn vout(&self) -> f64 {
         self.through_vout_map(&self.x, self.io_held)
+    }
+
+    /// `vout` as the ADC's `vout` channel sees it now: through its anti-alias filter
+    /// (`adc_filter`), where there is one (unquantized and without noise).
+    pub fn vout_read(&self) -> f64 {
+        self.digital.vout_channel(self.vout())
     }
 
     /// `∫ vout dt` since the current period started [V·s] (exact, as `vout_avg` is over a whole
@@ -453,6 +460,7 @@ impl Converter {
             VarId::AdcIfs => d.adc_ifs,
             VarId::AdcNoise => d.adc_noise,
             VarId::AdcDelay => d.adc_delay,
+            VarId::AdcFilter => d.adc_filter,
             VarId::NoiseSeed => d.noise_seed as f64,
             VarId::DpwmBits => f64::from(d.dpwm_bits),
             VarId::SwitchResistance => p.switch_resistance,
@@ -518,6 +526,7 @@ impl Converter {
                     VarId::AdcIfs => d.adc_ifs = value,
                     VarId::AdcNoise => d.adc_noise = value,
                     VarId::AdcDelay => d.adc_delay = value,
+                    VarId::AdcFilter => d.adc_filter = value,
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
                 }
                 if var.causality == variables::Causality::Parameter {
@@ -597,11 +606,11 @@ impl Converter {
             let to_event = event - self.phase;
             if remaining + snap < to_event {
                 // The step ends before the next event: advance exactly, however short.
-                self.advance(remaining, gate);
+                self.advance_read(remaining, gate, period);
                 self.phase += remaining;
                 break;
             }
-            self.advance(to_event, gate);
+            self.advance_read(to_event, gate, period);
             remaining -= to_event;
             self.phase = event;
             if reading {
@@ -632,6 +641,23 @@ impl Converter {
         }
         self.time += h;
         Ok(())
+    }
+
+    /// [`Self::advance`], the ADC's anti-alias filter following `vout` (`adc_filter`, see
+    /// [`crate::digital::AntiAlias`]) in pieces of at most a [`FILTER_PIECES`]th of the
+    /// `period`.
+    fn advance_read(&mut self, tau: f64, gate: Gate, period: f64) {
+        if !self.digital.filters() || tau <= 0.0 {
+            return self.advance(tau, gate);
+        }
+        let n = (FILTER_PIECES * tau / period).ceil().max(1.0);
+        let dt = tau / n;
+        for _ in 0..n as usize {
+            // (At the load current the piece draws, which may have been set since the last.)
+            let (v0, integral0) = (self.through_vout_map(&self.x, self.inputs.io), self.vout_integral());
+            self.advance(dt, gate);
+            self.digital.follow(v0, self.vout(), (self.vout_integral() - integral0) / dt, dt);
+        }
     }
 
     /// Whether the ADC reads `adc_delay` into each period (switched mode), else at its start.

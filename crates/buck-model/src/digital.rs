@@ -6,6 +6,7 @@
 //! first step that runs period `k`) the duty command is formed — the `duty` input in open loop,
 //! `PID(vref − vout_adc) + duty_dither` in closed loop — quantized to the DPWM resolution, and
 //! pushed into the delay line; the command from `delay` periods earlier drives the switch.
+//! The `vout` channel may read through a first-order anti-alias filter ([`AntiAlias`]).
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
@@ -46,6 +47,8 @@ pub struct Digital {
     /// Instant of the reading after each period start [s] (0: at the period start, the
     /// previous period's end).
     pub adc_delay: f64,
+    /// Time constant of the RC anti-alias filter in front of the `vout` channel [s] (0: none).
+    pub adc_filter: f64,
     /// DPWM resolution in bits (0: ideal).
     pub dpwm_bits: u32,
     integral: f64,
@@ -53,6 +56,8 @@ pub struct Digital {
     line: VecDeque<f64>,
     reading: [f64; 2],
     applied: f64,
+    /// The `vout` channel's filter output (`adc_filter`).
+    filtered: f64,
 }
 
 impl Default for Digital {
@@ -69,12 +74,14 @@ impl Default for Digital {
             adc_noise: 0.0,
             noise_seed: 1,
             adc_delay: 0.0,
+            adc_filter: 0.0,
             dpwm_bits: 0,
             integral: 0.0,
             e_prev: 0.0,
             line: VecDeque::new(),
             reading: [0.0; 2],
             applied: 0.0,
+            filtered: 0.0,
         }
     }
 }
@@ -96,6 +103,38 @@ fn normal(seed: u64, k: u64) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
+/// Pieces of a switching period over which an [`AntiAlias`] follows a converter's `vout`.
+pub const FILTER_PIECES: f64 = 8.0;
+
+/// A first-order low-pass `τ·y' = v − y` following a signal piece by piece: over each piece of
+/// length `dt` the signal is taken as the parabola through its values at both ends with its
+/// exact mean there. For `v = v₀ + b·t + c·t²` the output follows `v − τ·v' + τ²·v''` and
+/// relaxes to it as `e^{−t/τ}`: exact for a parabola (the ripple of a capacitor charged by a
+/// ramp of current), and for any signal in the limits `τ → 0` (the value) and `τ ≫ dt` (the
+/// mean). Pieces of a [`FILTER_PIECES`]th of a switching period keep a converter's `vout`
+/// close to that.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AntiAlias {
+    /// Time constant [s] (positive).
+    pub tau: f64,
+    /// The output now.
+    pub output: f64,
+}
+
+impl AntiAlias {
+    /// The output after a piece of length `dt` over which the signal went from `v0` to `v1`
+    /// with mean `mean`.
+    pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
+        let tau = self.tau;
+        let (rise, above) = (v1 - v0, mean - v0);
+        let c = 3.0 * (rise - 2.0 * above) / (dt * dt);
+        let b = (6.0 * above - 2.0 * rise) / dt;
+        let curve = 2.0 * c * tau * tau;
+        let (start, end) = (v0 - tau * b + curve, v1 - tau * (b + 2.0 * c * dt) + curve);
+        self.output = end + (self.output - start) * (-dt / tau).exp();
+    }
+}
+
 fn quantize(x: f64, lo: f64, hi: f64, bits: u32) -> f64 {
     if bits == 0 {
         return x;
@@ -113,11 +152,39 @@ impl Digital {
         self.e_prev = 0.0;
         self.line = std::iter::repeat_n(duty, self.delay as usize).collect();
         self.applied = duty;
+        self.settle_filter(vout);
         self.sample(vout, il, 0);
     }
 
-    /// The ADC conversion of period `k` (its noise a function of `k`).
+    /// Whether the `vout` channel reads through its anti-alias filter (`adc_filter`).
+    pub fn filters(&self) -> bool {
+        self.adc_filter > 0.0
+    }
+
+    /// The `vout` channel's filter following a piece of `vout` (see [`AntiAlias::follow`]);
+    /// nothing without a filter.
+    pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
+        if self.filters() {
+            let mut filter = AntiAlias { tau: self.adc_filter, output: self.filtered };
+            filter.follow(v0, v1, mean, dt);
+            self.filtered = filter.output;
+        }
+    }
+
+    /// The `vout` channel's filter settled at `vout` (a start at a state).
+    pub fn settle_filter(&mut self, vout: f64) {
+        self.filtered = vout;
+    }
+
+    /// What the `vout` channel sees of `vout` now: its filter's output, where there is one.
+    pub fn vout_channel(&self, vout: f64) -> f64 {
+        if self.filters() { self.filtered } else { vout }
+    }
+
+    /// The ADC conversion of period `k` (its noise a function of `k`) of `vout` (through the
+    /// filter, where there is one: its output) and `il`.
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
+        let vout = self.vout_channel(vout);
         let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
         self.reading = [quantize(noisy, 0.0, self.adc_vfs, self.adc_bits), quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits)];
     }

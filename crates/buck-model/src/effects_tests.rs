@@ -995,3 +995,50 @@ fn the_adc_reads_at_its_instant_within_the_period() {
     let err = conv.step(T).unwrap_err().to_string();
     assert!(err.contains("adc_delay"), "{err}");
 }
+
+/// The ADC's `vout` channel reads through its RC anti-alias filter (`adc_filter`): `vout_adc`
+/// matches the filter integrated on 4000 steps a period (exact for a line through each) over
+/// the unfiltered converter's `vout`, whose ripple kinks at every edge (a load ESR, dead time),
+/// its duty stepping every eight periods (vout swings 1.7 V), read at the period start and a
+/// third into it: within 50 µV, far under any record's noise, from a hundredth of the period to
+/// two. `il_adc` is not filtered. (The estimator's `sensor_filter` reads through the same
+/// filter: `Converter::vout_read`.)
+#[test]
+fn the_adc_reads_vout_through_its_anti_alias_filter() {
+    let p = Params { cl: 4.7e-6, load_esr: 20e-3, dead_time: 30e-9, ..Params::default() };
+    let substeps = 4000;
+    let h = T / substeps as f64;
+    for share in [0.01, 0.1, 1.0 / std::f64::consts::PI, 1.0, 2.0] {
+        let tau = share * T;
+        // (A third of the period on the fine grid.)
+        for late in [0.0, (substeps / 3) as f64 * h] {
+            let mut conv = converter(p, Mode::Switched, 0.4, 2.0);
+            conv.set(VarId::AdcFilter, tau).unwrap();
+            conv.set(VarId::AdcDelay, late).unwrap();
+            let mut fine = converter(p, Mode::Switched, 0.4, 2.0);
+            let (decay, mut filtered) = ((-h / tau).exp(), fine.get_real(VarId::Vout));
+            let mut worst = 0.0f64;
+            for k in 0..96 {
+                let duty = if (k / 8) % 2 == 0 { 0.4 } else { 0.6 };
+                conv.set(VarId::Duty, duty).unwrap();
+                fine.set(VarId::Duty, duty).unwrap();
+                conv.step(T).unwrap();
+                let mut read = None;
+                for s in 0..substeps {
+                    if late > 0.0 && read.is_none() && s as f64 * h >= late - h / 2.0 {
+                        read = Some((filtered, fine.get_real(VarId::Il)));
+                    }
+                    let v0 = fine.get_real(VarId::Vout);
+                    fine.step(h).unwrap();
+                    let v1 = fine.get_real(VarId::Vout);
+                    let lag = (v1 - v0) / h * tau;
+                    filtered = v1 - lag + (filtered - v0 + lag) * decay;
+                }
+                let (want, il) = read.unwrap_or((filtered, fine.get_real(VarId::Il)));
+                worst = worst.max((conv.get_real(VarId::VoutAdc) - want).abs());
+                assert!((conv.get_real(VarId::IlAdc) - il).abs() < 1e-9, "il read {} vs {il}", conv.get_real(VarId::IlAdc));
+            }
+            assert!(worst < 50e-6, "τ = {share} T, read at {late:e} s: {worst:e} V off");
+        }
+    }
+}

@@ -633,22 +633,20 @@ fn simulate_drives_our_fmu_with_stepped_duty_to_its_dc_points() {
     assert_clean_failure(&o, "not a finite number");
 }
 
-/// Our FMU with its ADC reading 0.2 T after each period start (`adc_delay`) and 2 mV of noise
-/// on vout there, run by `simulate` on a PRBS duty and recorded from its ADC (a period's
-/// readings and its applied duty arrive at its end), told nothing: `diagnose` names the late
-/// reading alone, at the ADC's instant within 1 %, and Cl's interval holds the FMU's.
-#[test]
-fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
+/// Our FMU at Cl 4.7 µF with 2 mV of noise on its ADC's vout and the ADC settings `adc`, run by
+/// `simulate` on a PRBS duty and recorded from its ADC as data in the contract's CSV, diagnosed
+/// told nothing: the diagnosis. A period's applied duty arrives at its end, and so do its
+/// readings where the ADC reads `within_period` (`adc_delay`), else at its start.
+fn diagnose_our_fmus_adc(adc: &[&str], within_period: bool) -> serde_json::Value {
     let (period, warmup, n) = (1.0 / 330e3, 200, 3001);
-    let delay = 0.2 * period;
     let dir = tempfile::tempdir().unwrap();
     let duties = estimator::experiment::Prbs::default().duties(warmup + n + 1).unwrap();
     let input = dir.path().join("duty.csv");
     let rows: String = duties.iter().enumerate().map(|(k, d)| format!("{:e},{d}\n", k as f64 * period)).collect();
     std::fs::write(&input, format!("time,duty\n{rows}")).unwrap();
     let out = dir.path().join("adc.csv");
-    let (stop, step, adc) = (format!("{:e}", (warmup + n + 1) as f64 * period), format!("{period:e}"), format!("adc_delay={delay:e}"));
-    let sets = ["mode=2", "Cl=4.7e-6", &adc, "adc_noise=2e-3", "noise_seed=3"].map(|s| ["--set", s]).concat();
+    let (stop, step) = (format!("{:e}", (warmup + n + 1) as f64 * period), format!("{period:e}"));
+    let sets = [&["mode=2", "Cl=4.7e-6", "adc_noise=2e-3", "noise_seed=3"], adc].concat().into_iter().flat_map(|s| ["--set", s]).collect::<Vec<_>>();
     let outputs = ["duty_applied", "vout_adc", "il_adc"].map(|s| ["--output", s]).concat();
     let args =
         [&["simulate", "--fmu", buck_fmu().to_str().unwrap(), "--input", input.to_str().unwrap(), "--stop", &stop, "--step", &step][..], &sets, &outputs, &["--out", out.to_str().unwrap()]].concat();
@@ -656,17 +654,17 @@ fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&out).unwrap();
     let recorded: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
-    // Row k of the data: period k's duty and readings, recorded at its end (row k + 1).
-    let periods = &recorded[warmup + 1..warmup + n + 1];
-    let column = |i: usize| periods.iter().map(|r| r[i]).collect::<Vec<f64>>();
+    // Row k of the data: period k's duty, recorded at its end (row k + 1), and its readings.
+    let readings_at = warmup + usize::from(within_period);
+    let column = |i: usize, from: usize| recorded[from..from + n].iter().map(|r| r[i]).collect::<Vec<f64>>();
     let meta = [("fs", "330000"), ("U", "12")].map(|(k, v)| (k.to_string(), v.to_string())).into();
     let data_set = estimator::data::DataSet {
         time: (0..n).map(|k| k as f64 * period).collect(),
-        duty: column(1),
+        duty: column(1, warmup + 1),
         vin: vec![12.0; n],
         io: vec![1.0; n],
-        vout: column(2),
-        il: Some(column(3)),
+        vout: column(2, readings_at),
+        il: Some(column(3, readings_at)),
         meta,
         ..estimator::data::DataSet::default()
     };
@@ -675,10 +673,31 @@ fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
     let dx_path = dir.path().join("dx.json");
     let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", dx_path.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let dx = json(&dx_path);
+    json(&dx_path)
+}
+
+/// Our FMU with its ADC reading 0.2 T after each period start (`adc_delay`): `diagnose` names
+/// the late reading alone, at the ADC's instant within 1 %, and Cl's interval holds the FMU's.
+#[test]
+fn a_late_adc_in_our_fmu_is_named_with_its_instant() {
+    let delay = 0.2 / 330e3;
+    let dx = diagnose_our_fmus_adc(&[&format!("adc_delay={delay:e}")], true);
     assert_eq!(selected_names(&dx), ["sample_delay"], "{}", dx["selection_ended"]);
     let found = selected_param(&dx, "sample_delay").as_f64().unwrap();
     assert!((found / delay - 1.0).abs() < 0.01, "sample_delay {found:e} for the ADC's {delay:e}");
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
+}
+
+/// Our FMU with an RC anti-alias filter in front of its ADC's vout channel (`adc_filter`, the
+/// corner at half the switching frequency): `diagnose` names the filter alone, its time constant
+/// within 3 %, and Cl's interval holds the FMU's.
+#[test]
+fn an_anti_alias_filter_in_our_fmu_is_named_with_its_time_constant() {
+    let tau = 1.0 / (std::f64::consts::PI * 330e3);
+    let dx = diagnose_our_fmus_adc(&[&format!("adc_filter={tau:e}")], false);
+    assert_eq!(selected_names(&dx), ["sensor_filter"], "{}", dx["selection_ended"]);
+    let found = selected_param(&dx, "vout_filter").as_f64().unwrap();
+    assert!((found / tau - 1.0).abs() < 0.03, "vout_filter {found:e} s for the ADC's {tau:e} s");
     assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
 }
 

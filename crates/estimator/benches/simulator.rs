@@ -2,7 +2,7 @@
 //! diagnosis fit runs once per trial step), on 3001 periods of open-loop PRBS data (two duty
 //! levels) and of closed-loop data (the converter's own PID and 10-bit DPWM, a ±0.02 PRBS
 //! dither: the duty moves every period over tens of levels), and of the open-loop data read
-//! through an RC anti-alias filter (`vout_filter`, stepped in sub-steps), side by side in one
+//! through an RC anti-alias filter (`vout_filter`, followed on pieces of T/8), side by side in one
 //! run.
 //!
 //! `cargo bench -p estimator --bench simulator`

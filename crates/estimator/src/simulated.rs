@@ -208,7 +208,8 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
 /// and `vin`, from `start` (a voltage: both capacitors at it, the DC point's current), calling
 /// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it, moved
 /// with the duty by `p.sample_duty_share`) with the inductor current at the period's start and
-/// `vout` as read there (through the low-pass `p.vout_filter`, if any). Returns the converter
+/// `vout` as read there (through the low-pass `p.vout_filter`, if any: the converter's ADC's
+/// anti-alias filter, [`buck_model::digital::AntiAlias`]). Returns the converter
 /// at the end of the record.
 fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64, f64)) -> Result<Converter, EstimatorError> {
     let Start { v0, dil } = start.into();
@@ -226,6 +227,8 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
         }
         Ok(())
     };
+    // `vout` read through the anti-alias filter, if any: the FMU's ADC's own.
+    conv.set(VarId::AdcFilter, p.vout_filter).map_err(plant)?;
     set_inputs(&mut conv, 0)?;
     conv.initialize();
     // The DC point's current, moved by what a load resistor draws at v0 instead of there.
@@ -239,78 +242,22 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
         let lock = if p.sample_duty_share == 0.0 { String::new() } else { format!(" (sample_delay {:e} s plus {}·(D − ½)·T)", p.sample_delay, p.sample_duty_share) };
         return Err(EstimatorError::Config(format!("a sampling instant {late:e} s{lock} must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
-    let mut reading = Reading::new(p.vout_filter, period, conv.outputs().vout);
     for k in 0..data.len() {
         let il_at_start = conv.state().il;
         let late = instant(k);
         if late > 0.0 {
             // The duty is latched at the period start; the reading comes `late` into it.
             set_inputs(&mut conv, k)?;
-            reading.step(&mut conv, late, false).map_err(plant)?;
-            at_sample(&conv, il_at_start, reading.value(&conv));
-            reading.step(&mut conv, period - late, true).map_err(plant)?;
+            conv.step(late).map_err(plant)?;
+            at_sample(&conv, il_at_start, conv.vout_read());
+            conv.step(period - late).map_err(plant)?;
         } else {
-            at_sample(&conv, il_at_start, reading.value(&conv));
+            at_sample(&conv, il_at_start, conv.vout_read());
             set_inputs(&mut conv, k)?;
-            reading.step(&mut conv, period, true).map_err(plant)?;
+            conv.step(period).map_err(plant)?;
         }
     }
     Ok(conv)
-}
-
-/// Sub-steps of a period over which a filtered reading follows `vout` (see [`Reading`]).
-const FILTER_STEPS: f64 = 8.0;
-
-/// The `vout` reading, directly or through a first-order low-pass of time constant `τ`
-/// ([`Params::vout_filter`]). For the filter the converter is stepped in sub-steps of at most a
-/// [`FILTER_STEPS`]th of a period, over each of which `vout` is taken as the parabola through
-/// its values at both ends with its exact mean (from the converter's exact integral): for
-/// `v = v₀ + b·t + c·t²` the filter follows `v − τ·v' + τ²·v''` and relaxes to it as `e^{−t/τ}`.
-/// Exact for a parabola (the ripple of a capacitor charged by a ramp of current), and for any
-/// `vout` in the limits `τ → 0` (the value) and `τ ≫ T` (the mean).
-struct Reading {
-    tau: f64,
-    period: f64,
-    filtered: f64,
-}
-
-impl Reading {
-    fn new(tau: f64, period: f64, vout: f64) -> Self {
-        Self { tau, period, filtered: vout }
-    }
-
-    /// The converter stepped by `h`, the filter with it; `to_period_end`: the step ends the
-    /// period (whose integral then restarts).
-    fn step(&mut self, conv: &mut Converter, h: f64, to_period_end: bool) -> Result<(), buck_model::ModelError> {
-        let tau = self.tau;
-        if tau <= 0.0 {
-            return conv.step(h);
-        }
-        let n = (FILTER_STEPS * h / self.period).ceil().max(1.0) as usize;
-        let dt = h / n as f64;
-        let decay = (-dt / tau).exp();
-        let (mut v0, mut integral0) = (conv.outputs().vout, conv.vout_integral());
-        for k in 0..n {
-            conv.step(dt)?;
-            let v1 = conv.outputs().vout;
-            // At the period's end the integral restarts: the period's own is its mean times T.
-            let ends_period = to_period_end && k + 1 == n;
-            let integral1 = if ends_period { conv.outputs().vout_avg * self.period } else { conv.vout_integral() };
-            let (rise, above) = (v1 - v0, (integral1 - integral0) / dt - v0);
-            let c = 3.0 * (rise - 2.0 * above) / (dt * dt);
-            let b = (6.0 * above - 2.0 * rise) / dt;
-            let curve = 2.0 * c * tau * tau;
-            let (start, end) = (v0 - tau * b + curve, v1 - tau * (b + 2.0 * c * dt) + curve);
-            self.filtered = end + (self.filtered - start) * decay;
-            (v0, integral0) = (v1, if ends_period { 0.0 } else { integral1 });
-        }
-        Ok(())
-    }
-
-    /// `vout` as read now.
-    fn value(&self, conv: &Converter) -> f64 {
-        if self.tau <= 0.0 { conv.outputs().vout } else { self.filtered }
-    }
 }
 
 /// Circuit values with the free parameters set from the unknowns `[ln θ | start]` (a logit for a
@@ -845,54 +792,6 @@ fn differenced_covariance(j: &DMatrix<f64>, ms: f64) -> Result<DMatrix<f64>, Est
 mod tests {
     use super::*;
     use crate::experiment::{Experiment, ModelPlant, run};
-
-    /// A reading through an RC filter, followed on eight steps a period with the parabola of
-    /// each step's ends and exact mean, against the filter integrated on 4000 steps a period
-    /// (exact for a line through each), on a converter whose `vout` kinks at every edge (a load
-    /// ESR, dead time), its duty stepping every eight periods (vout swings 1.7 V), read at the
-    /// period start and a third into it: within 50 µV, far under any record's noise, from a
-    /// hundredth of the period to two periods (observed: 30 µV at most).
-    #[test]
-    fn a_filtered_reading_follows_the_filter_on_fine_steps() {
-        let p = Params { cl: 4.7e-6, load_esr: 20e-3, dead_time: 30e-9, ..Params::default() };
-        let period = p.period();
-        let mut start = Converter::new(p, Mode::Switched);
-        start.set(VarId::Duty, 0.4).unwrap();
-        start.set(VarId::Io, 2.0).unwrap();
-        start.initialize();
-        for share in [0.01, 0.1, 0.3, 1.0, 2.0] {
-            let tau = share * period;
-            for late in [0.0, period / 3.0] {
-                let (mut c, mut fine) = (start.clone(), start.clone());
-                let mut reading = Reading::new(tau, period, c.outputs().vout);
-                let substeps = 4000;
-                let h = period / substeps as f64;
-                let (decay, mut filtered) = ((-h / tau).exp(), fine.outputs().vout);
-                let mut worst = 0.0f64;
-                for k in 0..96 {
-                    let duty = if (k / 8) % 2 == 0 { 0.4 } else { 0.6 };
-                    c.set(VarId::Duty, duty).unwrap();
-                    fine.set(VarId::Duty, duty).unwrap();
-                    if late > 0.0 {
-                        reading.step(&mut c, late, false).unwrap();
-                    }
-                    let read = reading.value(&c);
-                    reading.step(&mut c, period - late, true).unwrap();
-                    for s in 0..substeps {
-                        if s as f64 * h >= late - h / 2.0 && (s as f64 - 1.0) * h < late - h / 2.0 {
-                            worst = worst.max((read - filtered).abs());
-                        }
-                        let v0 = fine.outputs().vout;
-                        fine.step(h).unwrap();
-                        let v1 = fine.outputs().vout;
-                        let lag = (v1 - v0) / h * tau;
-                        filtered = v1 - lag + (filtered - v0 + lag) * decay;
-                    }
-                }
-                assert!(worst < 50e-6, "τ = {share} T, read at {late:e} s: {worst:e} V off");
-            }
-        }
-    }
 
     /// A reading's calibration by least squares: a scaled and shifted copy of a varying signal
     /// gives its gain and offset back exactly; a constant one, the offset alone; an empty one,
