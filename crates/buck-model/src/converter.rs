@@ -644,8 +644,7 @@ impl Converter {
     }
 
     /// [`Self::advance`], the ADC's anti-alias filter following `vout` (`adc_filter`, see
-    /// [`crate::digital::AntiAlias`]) in pieces of at most a [`FILTER_PIECES`]th of the
-    /// `period`.
+    /// [`Digital::follow`]) in pieces of at most a [`FILTER_PIECES`]th of the `period`.
     fn advance_read(&mut self, tau: f64, gate: Gate, period: f64) {
         if !self.digital.filters() || tau <= 0.0 {
             return self.advance(tau, gate);

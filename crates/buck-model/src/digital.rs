@@ -6,7 +6,7 @@
 //! first step that runs period `k`) the duty command is formed — the `duty` input in open loop,
 //! `PID(vref − vout_adc) + duty_dither` in closed loop — quantized to the DPWM resolution, and
 //! pushed into the delay line; the command from `delay` periods earlier drives the switch.
-//! The `vout` channel may read through a first-order anti-alias filter ([`AntiAlias`]).
+//! The `vout` channel may read through a first-order RC anti-alias filter (`adc_filter`).
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
@@ -103,36 +103,22 @@ fn normal(seed: u64, k: u64) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
-/// Pieces of a switching period over which an [`AntiAlias`] follows a converter's `vout`.
-pub const FILTER_PIECES: f64 = 8.0;
+/// Pieces of a switching period over which the anti-alias filter follows `vout` at most.
+pub(crate) const FILTER_PIECES: f64 = 8.0;
 
-/// A first-order low-pass `τ·y' = v − y` following a signal piece by piece: over each piece of
-/// length `dt` the signal is taken as the parabola through its values at both ends with its
-/// exact mean there. For `v = v₀ + b·t + c·t²` the output follows `v − τ·v' + τ²·v''` and
-/// relaxes to it as `e^{−t/τ}`: exact for a parabola (the ripple of a capacitor charged by a
-/// ramp of current), and for any signal in the limits `τ → 0` (the value) and `τ ≫ dt` (the
-/// mean). Pieces of a [`FILTER_PIECES`]th of a switching period keep a converter's `vout`
-/// close to that.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AntiAlias {
-    /// Time constant [s] (positive).
-    pub tau: f64,
-    /// The output now.
-    pub output: f64,
-}
-
-impl AntiAlias {
-    /// The output after a piece of length `dt` over which the signal went from `v0` to `v1`
-    /// with mean `mean`.
-    pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
-        let tau = self.tau;
-        let (rise, above) = (v1 - v0, mean - v0);
-        let c = 3.0 * (rise - 2.0 * above) / (dt * dt);
-        let b = (6.0 * above - 2.0 * rise) / dt;
-        let curve = 2.0 * c * tau * tau;
-        let (start, end) = (v0 - tau * b + curve, v1 - tau * (b + 2.0 * c * dt) + curve);
-        self.output = end + (self.output - start) * (-dt / tau).exp();
-    }
+/// The output of a first-order low-pass `τ·y' = v − y` at `output` after a piece of length `dt`
+/// over which its input went from `v0` to `v1` with mean `mean`, taken as the parabola through
+/// those. For `v = v₀ + b·t + c·t²` the output follows `v − τ·v' + τ²·v''` and relaxes to it as
+/// `e^{−t/τ}`: exact for a parabola (the ripple of a capacitor charged by a ramp of current), and
+/// for any input in the limits `τ → 0` (the value) and `τ ≫ dt` (the mean). Pieces of a
+/// [`FILTER_PIECES`]th of a switching period keep a converter's `vout` close to that.
+fn low_pass(output: f64, tau: f64, v0: f64, v1: f64, mean: f64, dt: f64) -> f64 {
+    let (rise, above) = (v1 - v0, mean - v0);
+    let c = 3.0 * (rise - 2.0 * above) / (dt * dt);
+    let b = (6.0 * above - 2.0 * rise) / dt;
+    let curve = 2.0 * c * tau * tau;
+    let (start, end) = (v0 - tau * b + curve, v1 - tau * (b + 2.0 * c * dt) + curve);
+    end + (output - start) * (-dt / tau).exp()
 }
 
 fn quantize(x: f64, lo: f64, hi: f64, bits: u32) -> f64 {
@@ -161,13 +147,11 @@ impl Digital {
         self.adc_filter > 0.0
     }
 
-    /// The `vout` channel's filter following a piece of `vout` (see [`AntiAlias::follow`]);
-    /// nothing without a filter.
+    /// The `vout` channel's filter following a piece of `vout` of length `dt` from `v0` to `v1`
+    /// with mean `mean` (see [`low_pass`]); nothing without a filter.
     pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
         if self.filters() {
-            let mut filter = AntiAlias { tau: self.adc_filter, output: self.filtered };
-            filter.follow(v0, v1, mean, dt);
-            self.filtered = filter.output;
+            self.filtered = low_pass(self.filtered, self.adc_filter, v0, v1, mean, dt);
         }
     }
 

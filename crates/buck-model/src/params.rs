@@ -113,7 +113,7 @@ pub struct Params {
     /// corner near half the switching frequency (τ ≈ T/π). 0 (the default): read directly. Not
     /// a circuit value: the estimator's plant simulator reads `vout` through it (`sensor_filter`
     /// effect); the FMU's ADC reads through its `adc_filter`
-    /// ([`crate::digital::Digital::adc_filter`]), the same [`crate::digital::AntiAlias`].
+    /// ([`crate::digital::Digital::adc_filter`]), the same filter.
     pub vout_filter: f64,
     /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
     /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like

@@ -209,7 +209,7 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
 /// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it, moved
 /// with the duty by `p.sample_duty_share`) with the inductor current at the period's start and
 /// `vout` as read there (through the low-pass `p.vout_filter`, if any: the converter's ADC's
-/// anti-alias filter, [`buck_model::digital::AntiAlias`]). Returns the converter
+/// anti-alias filter, [`Converter::vout_read`]). Returns the converter
 /// at the end of the record.
 fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64, f64)) -> Result<Converter, EstimatorError> {
     let Start { v0, dil } = start.into();
