@@ -153,9 +153,17 @@ def si(x, unit="F"):
     if x is None or not isinstance(x, (int, float)) or not math.isfinite(x):
         return "nan"
     for scale, p in ((1e-12, "p"), (1e-9, "n"), (1e-6, "µ"), (1e-3, "m"), (1.0, "")):
-        if abs(x) < scale * 1000:
+        # (Below what rounds to 1000 in three digits: 1 µF is "1 µF", not "1e+03 nF".)
+        if abs(x / scale) < 999.5:
             return f"{x / scale:.3g} {p}{unit}"
     return f"{x:.3g} {unit}"
+
+
+def interval(ci):
+    """A CI95 as the report prints it: `[lo, hi]`, or "(not identified)" where a bound is
+    missing, not finite or not positive (never `[0, inf]`)."""
+    bounds = [x for x in (ci or []) if isinstance(x, (int, float)) and math.isfinite(x) and x > 0]
+    return f"[{si(bounds[0])}, {si(bounds[1])}]" if len(bounds) == 2 else "(not identified)"
 
 
 def pct(a, b):
@@ -260,7 +268,7 @@ def main(argv=None):
         if t.get("drifted"):
             extra.append("drift " + "/".join(f"{x} {100 * (t['circuit'][x] / t['nominal'][x] - 1):+.0f} %" for x in t["drifted"]))
         if r["dx"]:
-            cl = f"Cl {si(r['cl'])} [{si(r['ci'][0])}, {si(r['ci'][1])}] vs {si(t['cl_true'])} {'✓' if r['cl_in'] else '✗'}"
+            cl = f"Cl {si(r['cl'])} {interval(r['ci'])} vs {si(t['cl_true'])} {'✓' if r['cl_in'] else '✗'}"
             named = f"{sum(r['flags'])}/{len(r['effects'])} named"
             verdict = r["dx"].get("verdict")
         else:
