@@ -643,14 +643,14 @@ impl Converter {
         Ok(())
     }
 
-    /// [`Self::advance`], the ADC's anti-alias filter following `vout` (`adc_filter`, see
-    /// [`Digital::follow`]) in pieces of at most a [`FILTER_PIECES`]th of the `period`.
-    fn advance_read(&mut self, tau: f64, gate: Gate, period: f64) {
-        if !self.digital.filters() || tau <= 0.0 {
-            return self.advance(tau, gate);
+    /// [`Self::advance`] by `span`, the ADC's anti-alias filter following `vout` (`adc_filter`,
+    /// see [`Digital::follow`]) in pieces of at most a [`FILTER_PIECES`]th of the `period`.
+    fn advance_read(&mut self, span: f64, gate: Gate, period: f64) {
+        if !self.digital.filters() || span <= 0.0 {
+            return self.advance(span, gate);
         }
-        let n = (FILTER_PIECES * tau / period).ceil().max(1.0);
-        let dt = tau / n;
+        let n = (FILTER_PIECES * span / period).ceil().max(1.0);
+        let dt = span / n;
         for _ in 0..n as usize {
             // (At the load current the piece draws, which may have been set since the last.)
             let (v0, integral0) = (self.through_vout_map(&self.x, self.inputs.io), self.vout_integral());

@@ -148,7 +148,7 @@ impl Digital {
     }
 
     /// The `vout` channel's filter following a piece of `vout` of length `dt` from `v0` to `v1`
-    /// with mean `mean` (see [`low_pass`]); nothing without a filter.
+    /// with mean `mean` (see `low_pass`); nothing without a filter.
     pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
         if self.filters() {
             self.filtered = low_pass(self.filtered, self.adc_filter, v0, v1, mean, dt);
