@@ -75,7 +75,7 @@ pub struct Snapshot {
 
 /// Tag in front of serialized states, so that foreign or stale bytes are rejected (04: the
 /// parameters carry the bias law's shape).
-const STATE_MAGIC: &[u8; 8] = b"BUCKST06";
+const STATE_MAGIC: &[u8; 8] = b"BUCKST07";
 
 /// Most switching periods one `fmi2DoStep` may cross (≈ 1 s of computing in switched mode).
 /// Without a bound, a step of 1e6 s or a huge `fs` restored from a state loops for hours: the

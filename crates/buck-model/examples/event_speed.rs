@@ -46,15 +46,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let dump = args.iter().position(|a| a == "--dump").and_then(|i| args.get(i + 1));
     let base = Params { cl: 4.7e-6, ..Params::default() };
-    // (name, parameters, best ms of commit 8effe05)
+    // A Schottky on its exponential law (`diode_emission`), beside the same diode's straight line.
+    let schottky = Params { diode_drop: 0.35, diode_resistance: 0.025, ..base };
+    // (name, parameters, best ms of commit 8effe05 where it had the effect)
     let cases = [
-        ("ideal", base, 0.279),
-        ("diode_drop (DCM)", Params { diode_drop: 0.45, ..base }, 89.0),
-        ("dead_time", Params { dead_time: 30e-9, ..base }, 14.1),
-        ("inductor_saturation", Params { inductor_saturation: 0.2, isat: 1.5, ..base }, 157.5),
-        ("cap_dc_bias", Params { cap_dc_bias: 0.5, ..base }, 40.2),
-        ("esl", Params { esl: 1e-9, ..base }, 0.285),
-        ("DCM + saturation + dc_bias", Params { diode_drop: 0.45, inductor_saturation: 0.2, isat: 1.5, cap_dc_bias: 0.5, ..base }, 433.0),
+        ("ideal", base, Some(0.279)),
+        ("diode_drop (DCM)", Params { diode_drop: 0.45, ..base }, Some(89.0)),
+        ("dead_time", Params { dead_time: 30e-9, ..base }, Some(14.1)),
+        ("inductor_saturation", Params { inductor_saturation: 0.2, isat: 1.5, ..base }, Some(157.5)),
+        ("cap_dc_bias", Params { cap_dc_bias: 0.5, ..base }, Some(40.2)),
+        ("esl", Params { esl: 1e-9, ..base }, Some(0.285)),
+        ("DCM + saturation + dc_bias", Params { diode_drop: 0.45, inductor_saturation: 0.2, isat: 1.5, cap_dc_bias: 0.5, ..base }, Some(433.0)),
+        ("schottky_line (DCM)", schottky, None),
+        ("schottky_law (DCM)", Params { diode_emission: 0.028, ..schottky }, None),
     ];
     let duties = prbs(PERIODS);
     println!("{:<28} {:>10} {:>10} {:>10} {:>8}  final vout_avg", "case", "before ms", "best ms", "median ms", "speedup");
@@ -69,7 +73,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         times.sort_by(f64::total_cmp);
         let last = trajectory.last().map_or(f64::NAN, |y| y.vout_avg);
         let (best, median) = (times[0], times[RUNS / 2]);
-        println!("{name:<28} {before:>10.3} {best:>10.3} {median:>10.3} {:>7.1}×  {last:.12}", before / best);
+        let (before, speedup) = before.map_or(("—".to_string(), "—".to_string()), |b| (format!("{b:.3}"), format!("{:.1}×", b / best)));
+        println!("{name:<28} {before:>10} {best:>10.3} {median:>10.3} {speedup:>8}  {last:.12}");
         if let Some(dir) = dump {
             let file = format!("{dir}/{}.csv", name.split_whitespace().next().unwrap_or(name));
             let mut w = std::io::BufWriter::new(std::fs::File::create(file)?);

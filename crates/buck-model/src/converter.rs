@@ -95,6 +95,9 @@ const RING_PIECE: f64 = 1.0 / 8.0;
 /// goes in one piece; a ring whose first swing stays clear of both clamps is not watched at
 /// all ([`Converter::ring_may_clamp`]).
 const RING_WATCH: u8 = 4;
+/// Pieces per period of a diode's conduction under its exponential law (`diode_emission`):
+/// over each the diode's drop is held at its mean along the piece's current.
+const DIODE_PIECES: f64 = 16.0;
 
 /// Which gate of the half bridge is on over an interval fixed by the PWM timing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -476,6 +479,7 @@ impl Converter {
             VarId::CapRatedVoltage => p.cap_rated_voltage,
             VarId::Rload => p.rload,
             VarId::DiodeResistance => p.diode_resistance,
+            VarId::DiodeEmission => p.diode_emission,
             VarId::SwitchNodeCapacitance => p.switch_node_capacitance,
             VarId::SwitchNodeDamping => p.switch_node_damping,
             VarId::LowSideRatio => p.low_side_ratio,
@@ -508,6 +512,7 @@ impl Converter {
                     VarId::SwitchResistance => p.switch_resistance = value,
                     VarId::DiodeDrop => p.diode_drop = value,
                     VarId::DiodeResistance => p.diode_resistance = value,
+                    VarId::DiodeEmission => p.diode_emission = value,
                     VarId::SwitchNodeCapacitance => p.switch_node_capacitance = value,
                     VarId::SwitchNodeDamping => p.switch_node_damping = value,
                     VarId::LowSideRatio => p.low_side_ratio = value,
@@ -887,15 +892,27 @@ impl Converter {
             if let (Gate::Slew, Some((_, mean)), Topology::LowDiode | Topology::HighDiode) = (gate, self.slew, topology) {
                 u_sw = mean;
             }
+            // A conducting diode on its exponential law goes in short pieces, each at its mean drop.
+            let law = self.params.diode_emission > 0.0 && gate != Gate::Slew && matches!(topology, Topology::LowDiode | Topology::HighDiode);
+            let diode_piece = self.params.period() / DIODE_PIECES;
+            if law {
+                u_sw = self.diode_law_node(topology, circuit, io, left.min(diode_piece));
+            }
             let u = Vector2::new(u_sw, io);
             // A ringing node goes in short pieces while it is watched (see `first_crossing`).
             let ringing = topology == Topology::Blocked && self.params.rings();
             let watched = ringing && self.ring_watch > 0;
-            let span = if watched { left.min(RING_PIECE * std::f64::consts::TAU * (self.params.l * self.params.switch_node_capacitance).sqrt()) } else { left };
-            // A whole gate interval goes by its own transition; the rest after a state event, and
-            // a ringing node, are reached on the ladder.
-            let end = if first && !ringing {
-                self.whole(circuit, left, &u)
+            let span = if watched {
+                left.min(RING_PIECE * std::f64::consts::TAU * (self.params.l * self.params.switch_node_capacitance).sqrt())
+            } else if law {
+                left.min(diode_piece)
+            } else {
+                left
+            };
+            // A whole gate interval, and a diode's whole pieces, go by their own (cached)
+            // transitions; the rest after a state event, and a ringing node, are reached on the ladder.
+            let end = if (first || (law && span == diode_piece)) && !ringing {
+                self.whole(circuit, span, &u)
             } else {
                 let i = self.ladder(circuit, span);
                 self.ladders[i].1.reach(&Point { t: 0.0, x: self.x, z: self.z }, &u, span)
@@ -909,8 +926,10 @@ impl Converter {
                 if left <= 0.0 {
                     return;
                 }
-                // Only a watched ring's piece is shorter than what is left of the interval.
-                self.ring_watch -= 1;
+                // Only a watched ring's and a diode's pieces are shorter than what is left.
+                if watched {
+                    self.ring_watch -= 1;
+                }
                 continue;
             };
             events += 1;
@@ -919,6 +938,24 @@ impl Converter {
                 return;
             }
         }
+    }
+
+    /// The switch node's voltage over the next `span` of a conducting diode on its exponential
+    /// law (`topology` `LowDiode` or `HighDiode`, its `circuit`): the clamp at the diode's mean
+    /// drop along the current, taken as linear over the piece from its slope at the start (found
+    /// at the drop of the piece's start, then once more at the mean drop), up to where it
+    /// reaches zero.
+    fn diode_law_node(&mut self, topology: Topology, circuit: Circuit, io: f64, span: f64) -> f64 {
+        let p = self.params;
+        let (vf, base, sign) = if topology == Topology::LowDiode { (p.low_diode_drop(), 0.0, -1.0) } else { (p.body_diode_drop(), self.inputs.vin, 1.0) };
+        let i0 = self.x[0].abs();
+        let mut u_sw = base + sign * p.diode_law_mean(vf, i0, i0);
+        let i = self.ladder(circuit, span);
+        for _ in 0..2 {
+            let slope = self.ladders[i].1.dil(&self.x, &Vector2::new(u_sw, io)) * self.x[0].signum();
+            u_sw = base + sign * p.diode_law_mean(vf, i0, (i0 + slope * span).max(0.0));
+        }
+        u_sw
     }
 
     /// Moves to the first state event at one of `levels` on the way from the current point to

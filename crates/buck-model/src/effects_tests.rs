@@ -1042,3 +1042,107 @@ fn the_adc_reads_vout_through_its_anti_alias_filter() {
         }
     }
 }
+
+/// `vout` at each period end of `p` (a diode on its exponential law, `diode_emission`) against
+/// the nonlinear circuit integrated by classical Runge–Kutta on 6000 steps a period, the
+/// conducting diode's drop `n·Vt·ln(1 + |il|/Is) + Rd·|il|` evaluated at each stage and its
+/// turn-off (`il` through 0) interpolated within its step; a PRBS duty 0.4/0.6 at `io`. The
+/// gate timing of [`Converter`]: asynchronous, high `[0, dT)` and the diode after; synchronous,
+/// both off for `dead_time` (a whole number of steps) before each turn-on, the body diodes
+/// carrying il by its sign. Returns the worst `vout` miss after 20 periods of the law and of
+/// the same diode's straight line (`diode_emission` = 0).
+fn diode_law_misses(p: Params, io: f64) -> (f64, f64) {
+    let nvt = p.diode_emission;
+    let is = 1.0 / (p.low_diode_drop() / nvt).exp_m1();
+    let body_is = 1.0 / (p.body_diode_drop() / nvt).exp_m1();
+    let mut conv = converter(p, Mode::Switched, 0.4, io);
+    let mut straight = converter(Params { diode_emission: 0.0, ..p }, Mode::Switched, 0.4, io);
+    let s = conv.state();
+    let mut x = DVector::from_row_slice(&[s.il, s.vc, s.vo]);
+    let high = p.piece_lti(p.switching_resistance(1.0), p.l, p.cl, false);
+    let low = p.piece_lti(p.switching_resistance(0.0), p.l, p.cl, false);
+    let diode = p.piece_lti(p.rl + p.diode_resistance, p.l, p.cl, false);
+    let blocked = p.piece_lti(p.rl, p.l, p.cl, true);
+    let n = 6000;
+    let h = T / f64::from(n);
+    let td = (p.dead_time / h).round() as i32;
+    assert!((f64::from(td) * h - p.dead_time).abs() < 1e-6 * h, "the dead time must be a whole number of steps");
+    let f = |lti: &Lti, x: &DVector<f64>, u_sw: f64| &lti.a * x + &lti.b * DVector::from_row_slice(&[u_sw, io]);
+    // The switch node of a conducting diode: the low side's below 0 (il > 0), the high side's above vin.
+    let node = |il: f64| if il > 0.0 { -nvt * (il / is).ln_1p() } else { 12.0 + nvt * (-il / body_is).ln_1p() };
+    let (mut worst, mut worst_straight) = (0.0f64, 0.0f64);
+    let mut reg: u16 = 0x1ff;
+    for k in 0..150 {
+        let bit = ((reg >> 8) ^ (reg >> 4)) & 1;
+        reg = ((reg << 1) | bit) & 0x1ff;
+        let d = if bit == 1 { 0.6 } else { 0.4 };
+        let on = (d * f64::from(n)).round() as i32;
+        let mut off = false;
+        let mut last_gate = 0;
+        for j in 0..n {
+            // 1: high side, 2: low side, 0: both off (the diodes decide).
+            let gate = if p.asynchronous() {
+                if j < on { 1 } else { 0 }
+            } else if j < td || (on..on + td).contains(&j) {
+                0
+            } else if j < on {
+                1
+            } else {
+                2
+            };
+            if gate != last_gate {
+                off = false;
+            }
+            last_gate = gate;
+            let sign = x[0].signum();
+            let rhs = |x: &DVector<f64>| match gate {
+                1 => f(&high, x, 12.0),
+                2 => f(&low, x, 0.0),
+                _ if off => f(&blocked, x, 0.0),
+                _ => f(&diode, x, node(x[0].abs().max(1e-300).copysign(sign))),
+            };
+            let k1 = rhs(&x);
+            let k2 = rhs(&(&x + &k1 * (h / 2.0)));
+            let k3 = rhs(&(&x + &k2 * (h / 2.0)));
+            let k4 = rhs(&(&x + &k3 * h));
+            let next = &x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+            if gate == 0 && !off && next[0] * sign <= 0.0 {
+                // Turn-off within the step: the diode's interval ends where il reaches 0.
+                let part = h * x[0] / (x[0] - next[0]);
+                let mid = &x + rhs(&x) * (part / 2.0);
+                x = &x + rhs(&mid) * part;
+                x[0] = 0.0;
+                off = true;
+                x = &x + f(&blocked, &x, 0.0) * (h - part);
+            } else {
+                x = next;
+            }
+        }
+        for c in [&mut conv, &mut straight] {
+            c.set(VarId::Duty, d).unwrap();
+            c.step(T).unwrap();
+        }
+        if k >= 20 {
+            worst = worst.max((conv.outputs().vout - x[2]).abs());
+            worst_straight = worst_straight.max((straight.outputs().vout - x[2]).abs());
+        }
+    }
+    (worst, worst_straight)
+}
+
+/// A Schottky on its exponential law (Vf 0.35 V at 1 A, n·Vt 27 mV, Rd 25 mΩ), against the
+/// integrated circuit ([`diode_law_misses`]): an asynchronous buck at io = 0.6 A takes its
+/// diode through every current from the peak to zero, in DCM, where the law bends the most
+/// (66 µV against 13.6 mV for the straight line); a synchronous buck with 40 ns of dead time at
+/// io = 0.3 A enters each period with il < 0 and leaves the on-time with il > 0, so the high
+/// side's body diode and the low side's carry it in turn, on the law through the 0.7 V
+/// silicon drop (45 nV against 0.87 mV: a dead time is shorter than one of the law's pieces).
+#[test]
+fn a_diode_on_its_exponential_law_matches_the_integrated_circuit() {
+    let schottky = Params { diode_drop: 0.35, diode_resistance: 0.025, diode_emission: 0.027, cl: 4.7e-6, ..Params::default() };
+    let (law, straight) = diode_law_misses(schottky, 0.6);
+    assert!(law < 1e-4 && straight > 20.0 * law, "diode buck: law {law:e} V, straight line {straight:e} V");
+    let body = Params { dead_time: 80.0 * T / 6000.0, diode_resistance: 0.025, diode_emission: 0.03, cl: 4.7e-6, ..Params::default() };
+    let (law, straight) = diode_law_misses(body, 0.3);
+    assert!(law < 1e-5 && straight > 20.0 * law, "body diodes: law {law:e} V, straight line {straight:e} V");
+}

@@ -42,6 +42,14 @@ pub struct Params {
     /// diode during dead time) drops `Vf + diode_resistance·|il|`, the threshold-voltage and
     /// slope-resistance model of a diode datasheet (a real diode's `n·Vt/I` plus its `Rs`).
     pub diode_resistance: f64,
+    /// Emission voltage `n·Vt` of the diodes' exponential law [V] (about 26 mV times the
+    /// ideality `n`): a real diode's drop grows with the logarithm of its current, steepest at
+    /// light load. Positive, a conducting diode drops `n·Vt·ln(1 + |il|/Is) + diode_resistance·|il|`
+    /// (Shockley's law with its series resistance), `Is` set so that the drop at 1 A is still
+    /// `Vf + diode_resistance·1 A`: `diode_drop` keeps its meaning at 1 A. 0 (the default): the
+    /// straight line `Vf + diode_resistance·|il|`. The switch node's slew and ring reach the
+    /// diodes' clamps at `Vf` either way.
+    pub diode_emission: f64,
     /// `dcm`: asynchronous buck with an ideal or `diode_drop` diode as the low side, so that the
     /// inductor current stops at zero (discontinuous conduction) instead of reversing.
     pub dcm: bool,
@@ -189,6 +197,7 @@ impl Default for Params {
             low_side_ratio: 1.0,
             diode_drop: 0.0,
             diode_resistance: 0.0,
+            diode_emission: 0.0,
             dcm: false,
             dead_time: 0.0,
             switch_node_capacitance: 0.0,
@@ -241,6 +250,7 @@ impl Params {
             (VarId::LowSideRatio, self.low_side_ratio),
             (VarId::DiodeDrop, self.diode_drop),
             (VarId::DiodeResistance, self.diode_resistance),
+            (VarId::DiodeEmission, self.diode_emission),
             (VarId::DeadTime, self.dead_time),
             (VarId::SwitchNodeCapacitance, self.switch_node_capacitance),
             (VarId::SwitchNodeDamping, self.switch_node_damping),
@@ -294,6 +304,25 @@ impl Params {
     /// diode of the asynchronous buck, else the low-side switch's body diode.
     pub fn low_diode_drop(&self) -> f64 {
         if self.asynchronous() { self.diode_drop } else { self.body_diode_drop() }
+    }
+
+    /// Mean drop of a diode whose forward drop at 1 A is `vf`, beyond its slope resistance
+    /// (which sits in the circuit's series resistance), while its current runs linearly from
+    /// `i0` to `i1` (both ≥ 0) [V]: `vf` on the straight-line law, the mean of
+    /// `n·Vt·ln(1 + i/Is)` under `diode_emission` (see [`Params::diode_emission`]).
+    pub fn diode_law_mean(&self, vf: f64, i0: f64, i1: f64) -> f64 {
+        let nvt = self.diode_emission;
+        if nvt == 0.0 || vf <= 0.0 {
+            return vf;
+        }
+        // Is from the drop at 1 A, in units of 1 A; ∫ ln(1 + i/Is) di = (Is + i)·ln(1 + i/Is) − i.
+        let is = 1.0 / (vf / nvt).exp_m1();
+        let antiderivative = |i: f64| (is + i) * (i / is).ln_1p() - i;
+        let (a, b) = (i0.max(0.0), i1.max(0.0));
+        if (b - a).abs() <= 1e-9 * (a + b + is) {
+            return nvt * (0.5 * (a + b) / is).ln_1p();
+        }
+        nvt * (antiderivative(b) - antiderivative(a)) / (b - a)
     }
 
     /// Load capacitance at the voltage `v` across it under `cap_dc_bias` [F].

@@ -61,6 +61,7 @@ pub enum VarId {
     SwitchNodeDamping,
     AdcDelay,
     AdcFilter,
+    DiodeEmission,
 }
 
 /// FMI causality.
@@ -218,6 +219,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::SwitchNodeDamping, "switch_node_damping", Parameter, "Ohm", (0.0, 1e4), Some(0.0), "Resistance in series with switch_node_capacitance (an RC snubber's resistor): damps the ring, and at an edge the node jumps by switch_node_damping |il| before it slews (switched mode only)"),
     real(VarId::AdcDelay, "adc_delay", Parameter, "s", (0.0, 1.0), Some(0.0), "Instant of the ADC's reading after each period start, below the period: vout_adc, il_adc and the controller read vout and il there (0 = at the period start; switched mode only)"),
     real(VarId::AdcFilter, "adc_filter", Parameter, "s", (0.0, 1.0), Some(0.0), "Time constant of the RC anti-alias filter in front of the ADC's vout channel: vout_adc and the controller read vout through it (0 = no filter; a corner near half the switching frequency is tau = 1/(pi fs))"),
+    real(VarId::DiodeEmission, "diode_emission", Parameter, "V", (0.0, 0.5), Some(0.0), "Emission voltage n Vt of the diodes' exponential (Shockley) law: a conducting diode drops diode_emission ln(1 + |il|/Is) + diode_resistance |il|, Is set so that the drop at 1 A is diode_drop + diode_resistance 1 A (0 = the straight line diode_drop + diode_resistance |il|; switched mode only)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
