@@ -894,24 +894,19 @@ impl Converter {
             }
             // A conducting diode on its exponential law goes in short pieces, each at its mean drop.
             let law = self.params.diode_emission > 0.0 && gate != Gate::Slew && matches!(topology, Topology::LowDiode | Topology::HighDiode);
-            let diode_piece = self.params.period() / DIODE_PIECES;
-            if law {
-                u_sw = self.diode_law_node(topology, circuit, io, left.min(diode_piece));
-            }
-            let u = Vector2::new(u_sw, io);
+            let diode_piece = law.then(|| self.params.period() / DIODE_PIECES);
             // A ringing node goes in short pieces while it is watched (see `first_crossing`).
             let ringing = topology == Topology::Blocked && self.params.rings();
             let watched = ringing && self.ring_watch > 0;
-            let span = if watched {
-                left.min(RING_PIECE * std::f64::consts::TAU * (self.params.l * self.params.switch_node_capacitance).sqrt())
-            } else if law {
-                left.min(diode_piece)
-            } else {
-                left
-            };
+            let span =
+                if watched { left.min(RING_PIECE * std::f64::consts::TAU * (self.params.l * self.params.switch_node_capacitance).sqrt()) } else { diode_piece.map_or(left, |piece| left.min(piece)) };
+            if law {
+                u_sw = self.diode_law_node(topology, circuit, io, span);
+            }
+            let u = Vector2::new(u_sw, io);
             // A whole gate interval, and a diode's whole pieces, go by their own (cached)
             // transitions; the rest after a state event, and a ringing node, are reached on the ladder.
-            let end = if (first || (law && span == diode_piece)) && !ringing {
+            let end = if (first || diode_piece == Some(span)) && !ringing {
                 self.whole(circuit, span, &u)
             } else {
                 let i = self.ladder(circuit, span);
