@@ -107,6 +107,7 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
         percent(s.detectable_named, s.detectable_cases),
         s.effect_cases - s.detectable_cases
     );
+    println!("| … named, or said alike to the effect named (the data does not tell them apart) | {} |", percent(s.told, s.effect_cases));
     println!("| `none` on clean data (≥ 90 %) | {} |", percent(s.none, s.clean_cases));
     if s.pair_cases > 0 {
         println!("| both effects of a two-effect dataset named (≥ 80 %) | {} (at least one: {}) |", percent(s.pair_named, s.pair_cases), percent(s.pair_one_named, s.pair_cases));
@@ -115,6 +116,7 @@ fn report(source: &str, seed: u64, part: &[Outcome]) {
             percent(s.pair_detectable_named, s.pair_detectable_cases),
             s.pair_cases - s.pair_detectable_cases
         );
+        println!("| … each named or said alike to an effect named | {} |", percent(s.pair_told, s.pair_cases));
     }
     if s.several_cases > 0 {
         println!("| every effect of a several-effect dataset named | {} (of their effects: {}) |", percent(s.several_named, s.several_cases), percent(s.several_effects_named, s.several_effects));

@@ -611,6 +611,8 @@ pub struct Outcome {
     /// The effects the diagnosis named, in its order (empty for `none` and for an error; see
     /// [`named_effects`]).
     pub named: Vec<String>,
+    /// The effects the diagnosis said its data does not tell from a named one ([`gap::Alike`]).
+    pub alike: Vec<String>,
     /// Held-out NRMSE shrink of the final model (the last selected effect) [%] (sensor noise included).
     pub shrink_percent: Option<f64>,
     /// Share of the held-out gap above the true measurement noise
@@ -689,6 +691,12 @@ impl Outcome {
         self.named.iter().filter(|n| !(late && *n == "sample_delay")).collect()
     }
 
+    /// Whether every withheld effect was named or said alike to a named one ([`gap::Alike`]):
+    /// the diagnosis told the engineer of each, if not as the one it took.
+    pub fn told(&self) -> bool {
+        !self.verdict.starts_with("error") && !self.truth.effects().is_empty() && self.truth.effects().iter().all(|e| self.named.iter().chain(&self.alike).any(|n| n == e))
+    }
+
     /// What the diagnosis said, for tables: the named effects joined by `+`, or the verdict
     /// (`none`, or the error).
     pub fn said(&self) -> String {
@@ -714,6 +722,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
         source: case.source,
         verdict: String::new(),
         named: Vec::new(),
+        alike: Vec::new(),
         shrink_percent: None,
         closed_percent: None,
         detectable: false,
@@ -731,6 +740,7 @@ pub fn diagnose_case(case: &Case) -> Outcome {
             let best = dx.selected.last();
             outcome.verdict.clone_from(&dx.verdict);
             outcome.named = named_effects(&dx);
+            outcome.alike = dx.selected.iter().flat_map(|e| e.alike.iter().map(|a| a.name.to_string())).collect();
             let (cl, ci95, _) = dx.final_cl();
             outcome.final_cl = Some((cl, ci95));
             outcome.shrink_percent = best.map(|e| e.shrink_percent);
@@ -760,6 +770,9 @@ pub struct Scores {
     pub detectable_cases: usize,
     /// Of those, named correctly.
     pub detectable_named: usize,
+    /// Datasets withholding an effect, with it named or said alike to the one named
+    /// ([`Outcome::told`]).
+    pub told: usize,
     /// Clean datasets, and how many got `none`.
     pub clean_cases: usize,
     /// Of those, `none`.
@@ -782,6 +795,8 @@ pub struct Scores {
     pub pair_detectable_cases: usize,
     /// Of those, with both named.
     pub pair_detectable_named: usize,
+    /// Datasets withholding two effects, with each named or said alike ([`Outcome::told`]).
+    pub pair_told: usize,
     /// Datasets withholding three or more effects.
     pub several_cases: usize,
     /// Of those, with every one named.
@@ -811,6 +826,7 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         named: effect.iter().filter(|o| o.hit()).count(),
         detectable_cases: effect.iter().filter(|o| o.detectable).count(),
         detectable_named: effect.iter().filter(|o| o.detectable && o.hit()).count(),
+        told: effect.iter().filter(|o| o.hit() || o.told()).count(),
         clean_cases: clean.len(),
         none: clean.iter().filter(|o| o.hit()).count(),
         with_gap: named.iter().filter(|o| o.closed_percent.is_some()).count(),
@@ -821,6 +837,7 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         pair_one_named: pair.iter().filter(|o| o.truth.effects().iter().any(|e| o.named.iter().any(|n| n == e))).count(),
         pair_detectable_cases: pair.iter().filter(|o| o.below_detection.is_empty()).count(),
         pair_detectable_named: pair.iter().filter(|o| o.below_detection.is_empty() && o.hit()).count(),
+        pair_told: pair.iter().filter(|o| o.hit() || o.told()).count(),
         several_cases: several.len(),
         several_named: several.iter().filter(|o| o.hit()).count(),
         several_effects: several.iter().map(|o| o.truth.effects().len()).sum(),
@@ -875,6 +892,7 @@ mod tests {
             source: "harness-several",
             verdict: named.first().map_or("none", |n| n).to_string(),
             named: named.iter().map(|n| n.to_string()).collect(),
+            alike: Vec::new(),
             shrink_percent: None,
             closed_percent: None,
             detectable: true,
@@ -914,5 +932,17 @@ mod tests {
         let s = score(&[missed_faint, missed, both]);
         assert_eq!((s.pair_cases, s.pair_named, s.pair_one_named), (3, 1, 3));
         assert_eq!((s.pair_detectable_cases, s.pair_detectable_named), (2, 1));
+    }
+
+    /// An effect the diagnosis said its data does not tell from the one it named is told, not
+    /// named: scored apart, for a single effect and for each of a pair's.
+    #[test]
+    fn an_effect_said_alike_is_told_but_not_named() {
+        let slope_for_switches = Outcome { alike: vec!["switch_resistance".into()], ..outcome(&["diode_drop", "switch_resistance"], &["diode_drop", "diode_resistance"]) };
+        let gain_for_esl = Outcome { alike: vec!["esl".into()], ..outcome(&["esl"], &["sensor_gain"]) };
+        let missed = outcome(&["esl"], &["sensor_gain"]);
+        assert!(slope_for_switches.told() && !slope_for_switches.hit());
+        let s = score(&[slope_for_switches, gain_for_esl, missed]);
+        assert_eq!((s.pair_named, s.pair_told, s.named, s.told), (0, 1, 0, 1));
     }
 }

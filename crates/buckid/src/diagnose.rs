@@ -152,6 +152,9 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
             (None, gap::FloorSource::Differences) => "no gap above the floor".to_string(),
         };
         println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.label(), closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
+        if let Some(alike) = alike_text(e) {
+            println!("            alike: {alike}");
+        }
     }
     println!("selection   {}", dx.selection_ended);
     println!("verdict     {}", dx.verdict_text());
@@ -186,24 +189,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
 /// nothing), and a drift's distance from its nominal (the nominal value itself left out): for
 /// the CLI and the report alike.
 pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
-    let mut out: Vec<String> = e
-        .params
-        .iter()
-        .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm" && *k != gap::RECIPROCAL_BIAS_LAW)
-        .map(|(k, v)| {
-            // A delay is a whole number of periods; a reading's gain error reads as a percentage.
-            if k == "delay" {
-                let late_readings = if *v < 0.0 { " (the readings a period late: each row's outputs taken at its period's end, not its start as the data contract has them)" } else { "" };
-                return format!("delay = {v:.0} period{}{late_readings}", if v.abs() == 1.0 { "" } else { "s" });
-            }
-            // A reading locked to the PWM: `sample_delay` is then its instant at half duty.
-            if k == "sample_duty_share" {
-                return format!("sample_duty_share = {v} (an ADC triggered from the PWM: read sample_delay + {v}·(D − ½)·T after each period start)");
-            }
-            let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
-            format!("{k} = {}", with_ci(v * scale, e.ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
-        })
-        .collect();
+    let mut out = fitted_values(&e.params, &e.ci95);
     if e.params.contains_key(gap::RECIPROCAL_BIAS_LAW) {
         out.push("under the reciprocal law: Cl kept 1/(1 + c·v/cap_rated_voltage)², c = 1/√(1 − cap_dc_bias) − 1".to_string());
     }
@@ -220,4 +206,32 @@ pub(crate) fn effect_params(e: &gap::EffectFit) -> Vec<String> {
         out.push(format!("closes {c:.1} % of il's gap over its floor"));
     }
     out
+}
+
+/// Fitted values with units and CI95 ("not identified" where the interval tells nothing), the
+/// nominal values and flags among them left out.
+fn fitted_values(params: &BTreeMap<String, f64>, ci95: &BTreeMap<String, [f64; 2]>) -> Vec<String> {
+    params
+        .iter()
+        .filter(|(k, _)| !k.ends_with("_nominal") && *k != "dcm" && *k != gap::RECIPROCAL_BIAS_LAW)
+        .map(|(k, v)| {
+            // A delay is a whole number of periods; a reading's gain error reads as a percentage.
+            if k == "delay" {
+                let late_readings = if *v < 0.0 { " (the readings a period late: each row's outputs taken at its period's end, not its start as the data contract has them)" } else { "" };
+                return format!("delay = {v:.0} period{}{late_readings}", if v.abs() == 1.0 { "" } else { "s" });
+            }
+            // A reading locked to the PWM: `sample_delay` is then its instant at half duty.
+            if k == "sample_duty_share" {
+                return format!("sample_duty_share = {v} (an ADC triggered from the PWM: read sample_delay + {v}·(D − ½)·T after each period start)");
+            }
+            let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
+            format!("{k} = {}", with_ci(v * scale, ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
+        })
+        .collect()
+}
+
+/// The findings that explain a selected step's gap alike ([`gap::Alike`]), in words.
+pub(crate) fn alike_text(e: &gap::EffectFit) -> Option<String> {
+    let each: Vec<String> = e.alike.iter().map(|a| format!("{} ({}; {} held out, Cl {})", a.label, fitted_values(&a.params, &a.ci95).join(", "), si(a.rms_after, "V", 3), si(a.cl, "F", 4))).collect();
+    (!each.is_empty()).then(|| format!("the data does not tell it from {}", each.join(" or ")))
 }

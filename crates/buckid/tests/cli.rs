@@ -1137,6 +1137,37 @@ fn a_series_resistance_splits_into_the_switchs_and_the_diodes() {
     assert_final_cl_holds_truth(&dx, &truth, 1.1);
 }
 
+/// An independent-harness diode buck (blind bench, seed 4242, dataset 10: a 19.7 mΩ high side, a
+/// Schottky with 31.7 mΩ of its own and n = 1.33, 13.8 µF of load at 1.57 A, read 225 ns late).
+/// Beside the diode's drop its slope resistance (4.04 mV held out) and a resistance in series
+/// with L in both phases (4.17 mV) leave the gap alike over a floor of 1.3 mV: at a duty of 0.4
+/// or 0.6 and one load current, a resistance in the on-time and one in the off-time differ only
+/// by how they share the period. The step takes the slope by Akaike's criterion and says that
+/// the data does not tell it from the switches': every effect drawn is named or alike.
+#[test]
+fn a_step_says_which_findings_the_data_does_not_tell_from_it() {
+    let (data, truth) = generated_fixture("harness", "diode-switches-alike-4242-10");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("dx.json");
+    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("alike: the data does not tell it from switch_resistance (series_resistance = "), "{text}");
+    let dx = json(&out);
+    let selected = dx["selected"].as_array().unwrap();
+    let slope = selected.iter().find(|e| e["name"] == "diode_resistance").unwrap_or_else(|| panic!("{:?}", selected_names(&dx)));
+    let alike: Vec<&str> = slope["alike"].as_array().map(|a| a.iter().map(|x| x["name"].as_str().unwrap()).collect()).unwrap_or_default();
+    assert_eq!(alike, ["switch_resistance"], "{slope}");
+    let series = slope["alike"][0]["params"]["series_resistance"].as_f64().unwrap();
+    let (ron, rs) = (truth["settings"]["ron_hs"].as_f64().unwrap(), truth["settings"]["diode_rs"].as_f64().unwrap());
+    assert!(series > ron && series < ron + rs + 0.03, "a series resistance of {series} Ω for a {ron} Ω switch and a {rs} Ω diode");
+    let told: Vec<&str> = selected.iter().flat_map(|e| std::iter::once(e["name"].as_str().unwrap()).chain(e["alike"].as_array().into_iter().flatten().map(|a| a["name"].as_str().unwrap()))).collect();
+    assert!(truth["effects"].as_array().unwrap().iter().all(|e| told.contains(&e.as_str().unwrap())), "{told:?}");
+    // The effects that were not taken are not named.
+    assert!(!selected_names(&dx).contains(&"switch_resistance"));
+    assert_final_cl_holds_truth(&dx, &truth, 1.2);
+}
+
 /// An independent-harness buck (blind bench, seed 3636, dataset 12: C 14.6 % high, switches of
 /// 6.1 and 23.2 mΩ, read 72 ns late, 9.16 µF of load at 2.4 A). Its path took an 11.5 mΩ load
 /// ESR for the late reading and reached the floor with four effects, Cl 8.55 [8.37, 9.00] µF

@@ -465,6 +465,10 @@ pub struct EffectFit {
     /// to Cl, the quantity the data is taken for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_test_failed_without: Option<f64>,
+    /// For a selected effect: the other findings of its step that explain the gap alike
+    /// ([`Alike::of`]), which this data does not tell from it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alike: Vec<Alike>,
     /// Held-out simulation residual (for the noise floor).
     #[serde(skip)]
     pub residual: Vec<f64>,
@@ -722,6 +726,62 @@ impl EffectFit {
     /// only il tells them apart).
     pub(crate) fn late_in_il(&self) -> bool {
         self.finding && explains_il(self.il_closed_percent)
+    }
+}
+
+/// Another finding of a step that explains its gap as the effect taken does: a diode buck's
+/// slope resistance and its switches' (a harness capture with both, 31 mΩ on the high side and
+/// a diode's 35 mΩ, left 4.04 and 4.19 mV held out over a floor of 2.95), a late reading, an
+/// ESL and a gain error of the reading where `il` is not recorded. The step takes one by
+/// Akaike's criterion; the data does not tell them apart, and the engineer is told so.
+#[derive(Debug, Clone, Serialize)]
+pub struct Alike {
+    /// Contract name (see [`EFFECTS`]).
+    pub name: &'static str,
+    /// Its name with the value it frees ([`EffectFit::label`]).
+    pub label: String,
+    /// Its fitted parameters.
+    pub params: BTreeMap<String, f64>,
+    /// CI95 of each parameter.
+    pub ci95: BTreeMap<String, [f64; 2]>,
+    /// Held-out RMS residual with it in place of the effect taken [V].
+    pub rms_after: f64,
+    /// Cl with it in place of the effect taken [F].
+    pub cl: f64,
+}
+
+impl Alike {
+    /// The findings of `rivals` (fitted in the same step as `taken`, on the same model) that
+    /// explain the gap alike: neither closes a material share ([`MATERIAL_SHARE`]) of the gap
+    /// the other leaves (none is left above the floor, or too little to tell them by). Not for
+    /// a late reading the inductor current shows (`il` tells it apart), nor another form of the
+    /// effect taken. A rival that leaves materially less was not taken for a reason of its own
+    /// (its path ended worse, it calibrates the reading): the data tells them apart.
+    pub(crate) fn of<'a>(taken: &EffectFit, rivals: impl IntoIterator<Item = &'a EffectFit>, baseline: &Baseline) -> Vec<Self> {
+        if taken.late_in_il() {
+            return Vec::new();
+        }
+        let mut out: Vec<Self> = rivals
+            .into_iter()
+            .filter(|r| r.finding && r.name != taken.name && !r.late_in_il())
+            .filter(|r| {
+                let immaterial = |before: f64, after: f64| baseline.closed_of_material_gap(before, after).is_none_or(|c| c < MATERIAL_SHARE);
+                immaterial(r.rms_after, taken.rms_after) && immaterial(taken.rms_after, r.rms_after)
+            })
+            .map(|r| Self { name: r.name, label: r.label(), params: r.params.clone(), ci95: r.ci95.clone(), rms_after: r.rms_after, cl: r.cl.estimate })
+            .collect();
+        out.sort_by(|a, b| a.rms_after.total_cmp(&b.rms_after));
+        // One form of each effect: its best.
+        let mut seen = Vec::new();
+        out.retain(|a| {
+            if seen.contains(&a.name) {
+                false
+            } else {
+                seen.push(a.name);
+                true
+            }
+        });
+        out
     }
 }
 
@@ -1517,6 +1577,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         il_closed_percent: None,
         stand_in: None,
         cl_test_failed_without: None,
+        alike: Vec::new(),
         residual,
     };
     (fit, t.cand)
@@ -1612,6 +1673,7 @@ pub(crate) mod tests {
             ruled_out_above: None,
             stand_in: None,
             cl_test_failed_without: None,
+            alike: Vec::new(),
             residual: Vec::new(),
         }
     }
@@ -1903,5 +1965,38 @@ pub(crate) mod tests {
             .collect();
         let coloured = model_error_inflation(&ar);
         assert!((8.0..19.0).contains(&coloured), "AR(1): {coloured}");
+    }
+
+    /// Of a step's findings, those that leave the gap as the effect taken does are alike: a
+    /// diode's slope resistance taken at 4.04 mV held out over a floor of 2.95 mV, the
+    /// switches' series resistance at 4.19 mV (it closes 14 % of the gap that one leaves, less
+    /// than a material share), a vout gain error at 6 mV (the slope closes 71 % of its gap: told
+    /// apart), a dead time at 3.2 mV (it closes 80 % of the slope's gap: told apart). Neither
+    /// a non-finding, nor another form of the effect taken, nor anything beside a late reading
+    /// the inductor current shows is alike; of two forms of one rival, its best.
+    #[test]
+    fn findings_that_leave_the_gap_as_the_one_taken_are_alike() {
+        let baseline = Baseline::for_tests(0.2, 1e-6, Some(2.95e-3));
+        let taken = finding("diode_resistance", &baseline, 4.04e-3, 21.6e-3);
+        let mut series = finding("switch_resistance", &baseline, 4.19e-3, 21.6e-3);
+        series.params.insert("series_resistance".into(), 0.0265);
+        let mut worse_form = finding("switch_resistance", &baseline, 4.30e-3, 21.6e-3);
+        worse_form.params.insert("switch_resistance".into(), 0.03);
+        let gain = finding("sensor_gain", &baseline, 6.0e-3, 21.6e-3);
+        let better = finding("dead_time", &baseline, 3.2e-3, 21.6e-3);
+        let mut drift = finding("param_drift", &baseline, 4.1e-3, 21.6e-3);
+        drift.finding = false;
+        let same = finding("diode_resistance", &baseline, 4.0e-3, 21.6e-3);
+        let alike = Alike::of(&taken, [&gain, &better, &worse_form, &series, &drift, &same], &baseline);
+        let labels: Vec<&str> = alike.iter().map(|a| a.label.as_str()).collect();
+        assert_eq!(labels, ["switch_resistance"], "{alike:?}");
+        assert_eq!((alike[0].params.get("series_resistance"), alike[0].rms_after), (Some(&0.0265), 4.19e-3));
+        // Both at the floor: no gap left to tell them apart by.
+        let at_floor = finding("esl", &baseline, 2.96e-3, 21.6e-3);
+        assert_eq!(Alike::of(&finding("sample_delay", &baseline, 2.95e-3, 21.6e-3), [&at_floor], &baseline).len(), 1);
+        // A late reading il shows is told apart by il.
+        let mut late = finding("sample_delay", &baseline, 2.95e-3, 21.6e-3);
+        late.il_closed_percent = Some(99.0);
+        assert!(Alike::of(&late, [&at_floor], &baseline).is_empty());
     }
 }

@@ -32,8 +32,8 @@ use std::collections::BTreeMap;
 pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
-    ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested, RECIPROCAL_BIAS_LAW,
-    ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
+    Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested,
+    RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};

@@ -112,6 +112,7 @@ pub(crate) fn candidate(data: &DataSet, against: &Candidate, n_est: usize, basel
         il_closed_percent: None,
         stand_in: None,
         cl_test_failed_without: None,
+        alike: Vec::new(),
         residual,
     })
 }

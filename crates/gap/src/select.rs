@@ -26,8 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading,
-    cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial,
+    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms,
+    simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -999,6 +1000,12 @@ pub(crate) fn forward(
         Ok(s) => s,
         Err(e) => return (selected, format!("no further step: {e}")),
     };
+    // A first step taken from the candidates: those that explain the nominal's gap alike.
+    if let [first] = selected.as_mut_slice()
+        && first.alike.is_empty()
+    {
+        first.alike = Alike::of(first, alone, baseline);
+    }
     let mut fitted: Option<Candidate> = None;
     let (mut swaps_left, mut notes) = (MAX_SWAPS, Vec::new());
     let why = loop {
@@ -1167,6 +1174,8 @@ pub(crate) fn forward(
         let mut late_fits = if swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) { swap_fits(&late) } else { Vec::new() };
         let late_swap = late_fits.iter().enumerate().filter(|(_, s)| s.1.0.late_in_il()).min_by(|a, b| a.1.1.0.aic.total_cmp(&b.1.1.0.aic)).map(|(i, _)| i);
         let late_swap = late_swap.map(|i| late_fits.swap_remove(i));
+        // What the step fitted, for the findings that explain its gap alike.
+        let mut rivals: Vec<EffectFit> = trials.iter().map(|t| t.0.clone()).collect();
         // Else the late reading il shows, or the best material step; nothing adding, an effect
         // that replaced one already taken: that swap, when it is a finding (the late ones' fits
         // reused).
@@ -1205,10 +1214,11 @@ pub(crate) fn forward(
         // reading's calibration, the explanation of last resort: a lab buck's 19 nH ESL read
         // 359 ns late, ranked sixth on its 1 nH probe, took a −0.011 % gain of the reading on top
         // of the instant with Cl 14 % off, where the ESL reaches the floor with Cl right.
-        let (fit, cand, extended) = if (!fit.finding || fit.calibrates_reading()) && !within {
+        let (mut fit, cand, extended) = if (!fit.finding || fit.calibrates_reading()) && !within {
             let made = fits_so_far();
             passed_over.retain(|x| !made.iter().any(|(name, _)| *name == x.name));
             let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
+            rivals.extend(more.iter().map(|t| t.0.clone()));
             best_material(more.into_iter(), |t| &t.0).filter(|t| t.0.finding).unwrap_or((fit, cand, extended))
         } else {
             (fit, cand, extended)
@@ -1216,6 +1226,7 @@ pub(crate) fn forward(
         if !fit.finding {
             break format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label());
         }
+        fit.alike = Alike::of(&fit, &rivals, baseline);
         stack = Stack { params: cand.fit.params, ..extended };
         // The extension's stack holds the effect's parameters; its name goes with them (what the
         // next step may offer depends on it: a diode's refinements, no second load ESR).

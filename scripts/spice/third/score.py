@@ -112,14 +112,19 @@ def drifts_freed(dx):
     return {k for e in dx.get("selected") or [] if e["name"] == "param_drift" for k in ("L", "C", "Rc") if k in e.get("params", {})}
 
 
-def score_case(truth, dx, lenient_dcm=False, strict_drift=False):
+def score_case(truth, dx, lenient_dcm=False, strict_drift=False, alike=False):
     """(scored effects, named flags, all named, none ok or None, Cl in CI, Cl estimate, ci).
+
+    With ``alike`` an effect also counts where a selected step says the data does not tell it
+    from the effect that step took (its ``alike`` list): told, if not as the one taken.
 
     ``param_drift`` counts as named when a drift is selected, whichever value it frees; with
     ``strict_drift`` only when it frees a value the generator drew drifted (an L drift named
     where C drifted is the wrong effect to an engineer)."""
     effects = [e for e in truth["effects"] if e != "sample_delay"]
     names = [e["name"] for e in dx.get("selected") or []]
+    if alike:
+        names += [a["name"] for e in dx.get("selected") or [] for a in e.get("alike") or []]
     flags = []
     for e in effects:
         if e == "dcm" and lenient_dcm:
@@ -175,6 +180,7 @@ def table(rows, title):
     eff_named = sum(sum(r["flags"]) for r in rows if r["dx"])
     eff_named_l = sum(sum(r["flags_l"]) for r in rows if r["dx"])
     eff_named_s = sum(sum(r["flags_s"]) for r in rows if r["dx"])
+    eff_told = sum(sum(r["flags_t"]) for r in rows if r["dx"])
     cases_eff = [r for r in rows if r["dx"] and r["effects"]]
     all_named = sum(1 for r in cases_eff if r["all"])
     all_named_l = sum(1 for r in cases_eff if r["all_l"])
@@ -188,6 +194,7 @@ def table(rows, title):
              f"| withheld effects named (`sample_delay` set aside) | {pct(eff_named, eff_total)} |",
              f"| … with `dcm` counted via `diode_drop` | {pct(eff_named_l, eff_total)} |",
              f"| … with `param_drift` counted only for the value drawn drifted | {pct(eff_named_s, eff_total)} |",
+             f"| … named or said alike to an effect named (the data does not tell them apart) | {pct(eff_told, eff_total)} |",
              f"| every effect of a case named | {pct(all_named, len(cases_eff))} |",
              f"| … with `dcm` counted via `diode_drop` | {pct(all_named_l, len(cases_eff))} |",
              f"| `none` on clean cases | {pct(none_ok, len(clean))} |",
@@ -230,7 +237,7 @@ def main(argv=None):
     for f, k, j, *_ in jobs:
         csv, truth_path, diag, log = paths(a.out, f, k, j)
         row = dict(family=f, kind=k, j=j, dx=None, seconds=None, error=gen_err.get((f, k, j)), effects=[], flags=[],
-                   flags_l=[], flags_s=[], all=None, all_l=None, none_ok=None, cl_in=False, truth=None)
+                   flags_l=[], flags_s=[], flags_t=[], all=None, all_l=None, none_ok=None, cl_in=False, truth=None)
         rows.append(row)
         if row["error"]:
             row["error"] = "generation: " + row["error"]
@@ -246,7 +253,8 @@ def main(argv=None):
             effects, flags, all_, none_ok, inside, cl, ci = score_case(truth, dx)
             _, flags_l, all_l, _, _, _, _ = score_case(truth, dx, lenient_dcm=True)
             flags_s = score_case(truth, dx, strict_drift=True)[1]
-            row.update(effects=effects, flags=flags, flags_l=flags_l, flags_s=flags_s, all=all_, all_l=all_l, none_ok=none_ok,
+            flags_t = score_case(truth, dx, alike=True)[1]
+            row.update(effects=effects, flags=flags, flags_l=flags_l, flags_s=flags_s, flags_t=flags_t, all=all_, all_l=all_l, none_ok=none_ok,
                        cl_in=inside, cl=cl, ci=ci)
     out = [f"## buckid diagnose on the third generator (seed {a.seed}, {a.per_kind} per family and kind)", ""]
     for f in families:

@@ -175,6 +175,20 @@ def test_dcm_is_scored_named_from_the_reported_regime():
     assert flags == [True, True]
 
 
+def test_an_effect_said_alike_is_scored_told_not_named():
+    """An effect a selected step says the data does not tell from the one it took counts only
+    in the ``alike`` score, not as named."""
+    import score
+
+    truth = {"effects": ["diode_drop", "switch_resistance"], "kind": "several", "cl_true": 1e-6}
+    step = {"name": "diode_resistance", "alike": [{"name": "switch_resistance"}], "cl": {"estimate": 1e-6, "ci95": [0.9e-6, 1.1e-6]}}
+    dx = {"verdict": "diode_drop", "selected": [{"name": "diode_drop"}, step]}
+    _, flags, all_named, *_ = score.score_case(truth, dx)
+    assert flags == [True, False] and not all_named
+    _, flags, all_told, *_ = score.score_case(truth, dx, alike=True)
+    assert flags == [True, True] and all_told
+
+
 def test_a_drift_is_scored_strictly_only_for_the_value_drawn():
     """A ``param_drift`` that frees L counts as named where C drifted, as it always has, and
     strictly only where L itself was drawn drifted."""

@@ -11,7 +11,7 @@ use gap::{Diagnosis, Group, Nominal};
 
 use super::plot::{Axis, BLUE, Band, Bar, Bars, Chart, FLOOR, GREEN, GREY, Line, Mark, ORANGE, Panel, RED};
 use super::{Page, esc, table};
-use crate::diagnose::effect_params;
+use crate::diagnose::{alike_text, effect_params};
 use crate::units::{si, si_text, with_ci};
 
 /// Most held-out samples drawn.
@@ -231,9 +231,10 @@ Gap before: held-out NRMSE {}, residual {} RMS over a noise floor of {} RMS ({};
     page.write(dir)
 }
 
-/// An effect's parameters as the CLI prints them, one per line.
+/// An effect's parameters as the CLI prints them, one per line, and what explains its step alike.
 fn params_html(e: &gap::EffectFit) -> String {
-    effect_params(e).iter().map(|p| esc(p)).collect::<Vec<_>>().join("<br>")
+    let alike = alike_text(e).map(|a| format!("<br><i>{}</i>", esc(&a))).unwrap_or_default();
+    effect_params(e).iter().map(|p| esc(p)).collect::<Vec<_>>().join("<br>") + &alike
 }
 
 /// Root mean square of `x`.
