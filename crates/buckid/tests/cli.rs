@@ -54,12 +54,18 @@ fn diagnose_third(name: &str) -> (serde_json::Value, serde_json::Value) {
 
 /// `buckid diagnose --nominal switched` on a generated data set and its truth: its JSON and the
 /// truth.
-fn diagnose_generated((data, truth): (PathBuf, serde_json::Value)) -> (serde_json::Value, serde_json::Value) {
+fn diagnose_generated(fixture: (PathBuf, serde_json::Value)) -> (serde_json::Value, serde_json::Value) {
+    let (dx, truth, _) = diagnose_generated_text(fixture);
+    (dx, truth)
+}
+
+/// [`diagnose_generated`], and what the CLI printed.
+fn diagnose_generated_text((data, truth): (PathBuf, serde_json::Value)) -> (serde_json::Value, serde_json::Value, String) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("dx.json");
     let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    (json(&out), truth)
+    (json(&out), truth, String::from_utf8_lossy(&o.stdout).into_owned())
 }
 
 /// The names of the effects the diagnosis `dx` selected, in order.
@@ -844,14 +850,8 @@ fn a_diode_bucks_snubber_rings_and_lets_cl_be_identified() {
 /// interval holds the truth.
 #[test]
 fn a_late_reading_that_unpins_a_rings_damping_is_taken_with_the_ring_undamped() {
-    let (data, truth) = generated_fixture("harness", "diode-ring-4343-3");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("dx.json");
-    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let dx = json(&out);
+    let (dx, truth, stdout) = diagnose_generated_text(generated_fixture("harness", "diode-ring-4343-3"));
     assert_eq!(selected_names(&dx), ["diode_drop", "switch_node_ring", "sample_delay"], "{}", dx["selection_ended"]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("its switch node ringing with L)"), "{stdout}");
     let ring = &dx["selected"][1]["params"];
     assert!(ring.get("switch_node_damping").is_none(), "{ring}");
@@ -1146,14 +1146,8 @@ fn a_series_resistance_splits_into_the_switchs_and_the_diodes() {
 /// the data does not tell it from the switches': every effect drawn is named or alike.
 #[test]
 fn a_step_says_which_findings_the_data_does_not_tell_from_it() {
-    let (data, truth) = generated_fixture("harness", "diode-switches-alike-4242-10");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("dx.json");
-    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout);
+    let (dx, truth, text) = diagnose_generated_text(generated_fixture("harness", "diode-switches-alike-4242-10"));
     assert!(text.contains("alike: the data does not tell it from switch_resistance (series_resistance = "), "{text}");
-    let dx = json(&out);
     let selected = dx["selected"].as_array().unwrap();
     let slope = selected.iter().find(|e| e["name"] == "diode_resistance").unwrap_or_else(|| panic!("{:?}", selected_names(&dx)));
     let alike: Vec<&str> = slope["alike"].as_array().map(|a| a.iter().map(|x| x["name"].as_str().unwrap()).collect()).unwrap_or_default();
@@ -1340,15 +1334,9 @@ fn a_quiet_clean_capture_is_clean() {
 /// capture says `none` alone.
 #[test]
 fn an_unexplained_gap_is_not_said_as_clean_datas_none() {
-    let (data, _) = third_fixture("thesis-several-10602");
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("dx.json");
-    let o = buckid(&["diagnose", "--data", data.to_str().unwrap(), "--nominal", "switched", "--json", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let dx = json(&out);
+    let (dx, _, stdout) = diagnose_generated_text(third_fixture("thesis-several-10602"));
     assert_eq!(dx["verdict"], "none", "{}", dx["selection_ended"]);
     assert_eq!(dx["unexplained"], true);
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("verdict     none of the candidates: the nominal misses materially"), "{stdout}");
     // Its Cl is not identified: no interval holds the values it leans on, so no leverage is said.
     assert!(stdout.contains("(not identified)") && !stdout.contains("leverage"), "{stdout}");
