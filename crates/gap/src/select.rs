@@ -1191,6 +1191,8 @@ pub(crate) fn forward(
                 next => next.map(|t| (None, t)),
             },
         };
+        // A swap's newcomer is judged on another model than the step's own fits.
+        let swapped = next.as_ref().is_some_and(|(replaced, _)| replaced.is_some());
         let next = next.map(|(replaced, t)| {
             if let Some(k) = replaced {
                 swaps_left -= 1;
@@ -1226,7 +1228,9 @@ pub(crate) fn forward(
         if !fit.finding {
             break format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label());
         }
-        fit.alike = Alike::of(&fit, &rivals, baseline);
+        if !swapped {
+            fit.alike = Alike::of(&fit, &rivals, baseline);
+        }
         stack = Stack { params: cand.fit.params, ..extended };
         // The extension's stack holds the effect's parameters; its name goes with them (what the
         // next step may offer depends on it: a diode's refinements, no second load ESR).
