@@ -755,15 +755,16 @@ impl Alike {
     /// explain the gap alike: neither closes a material share ([`MATERIAL_SHARE`]) of the gap
     /// the other leaves (none is left above the floor, or too little to tell them by). Not for
     /// a late reading the inductor current shows (`il` tells it apart), nor another form of the
-    /// effect taken. A rival that leaves materially less was not taken for a reason of its own
-    /// (its path ended worse, it calibrates the reading): the data tells them apart.
+    /// effect taken, nor a rival whose value lies beyond its device ([`EffectFit::beyond_the_device`]:
+    /// it stands in for more, no explanation to offer). A rival that leaves materially less
+    /// was not taken for a reason of its own (its path ended worse): the data tells them apart.
     pub(crate) fn of<'a>(taken: &EffectFit, rivals: impl IntoIterator<Item = &'a EffectFit>, baseline: &Baseline) -> Vec<Self> {
         if taken.late_in_il() {
             return Vec::new();
         }
         let mut out: Vec<Self> = rivals
             .into_iter()
-            .filter(|r| r.finding && r.name != taken.name && !r.late_in_il())
+            .filter(|r| r.finding && r.name != taken.name && !r.late_in_il() && r.beyond_the_device().is_none())
             .filter(|r| {
                 let immaterial = |before: f64, after: f64| baseline.closed_of_material_gap(before, after).is_none_or(|c| c < MATERIAL_SHARE);
                 immaterial(r.rms_after, taken.rms_after) && immaterial(taken.rms_after, r.rms_after)
@@ -1965,8 +1966,9 @@ pub(crate) mod tests {
     /// switches' series resistance at 4.19 mV (it closes 14 % of the gap that one leaves, less
     /// than a material share), a vout gain error at 6 mV (the slope closes 71 % of its gap: told
     /// apart), a dead time at 3.2 mV (it closes 80 % of the slope's gap: told apart). Neither
-    /// a non-finding, nor another form of the effect taken, nor anything beside a late reading
-    /// the inductor current shows is alike; of two forms of one rival, its best.
+    /// a non-finding, nor another form of the effect taken, nor a diode's drop of 3.2 V (beyond
+    /// any diode's), nor anything beside a late reading the inductor current shows is alike; of
+    /// two forms of one rival, its best.
     #[test]
     fn findings_that_leave_the_gap_as_the_one_taken_are_alike() {
         let baseline = Baseline::for_tests(0.2, 1e-6, Some(2.95e-3));
@@ -1980,7 +1982,9 @@ pub(crate) mod tests {
         let mut drift = finding("param_drift", &baseline, 4.1e-3, 21.6e-3);
         drift.finding = false;
         let same = finding("diode_resistance", &baseline, 4.0e-3, 21.6e-3);
-        let alike = Alike::of(&taken, [&gain, &better, &worse_form, &series, &drift, &same], &baseline);
+        let mut beyond = finding("diode_drop", &baseline, 4.1e-3, 21.6e-3);
+        beyond.params.insert("diode_drop".into(), 3.2);
+        let alike = Alike::of(&taken, [&gain, &better, &worse_form, &series, &drift, &same, &beyond], &baseline);
         let labels: Vec<&str> = alike.iter().map(|a| a.label.as_str()).collect();
         assert_eq!(labels, ["switch_resistance"], "{alike:?}");
         assert_eq!((alike[0].params.get("series_resistance"), alike[0].rms_after), (Some(&0.0265), 4.19e-3));
