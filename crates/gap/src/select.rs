@@ -1001,9 +1001,7 @@ pub(crate) fn forward(
         Err(e) => return (selected, format!("no further step: {e}")),
     };
     // A first step taken from the candidates: those that explain the nominal's gap alike.
-    if let [first] = selected.as_mut_slice()
-        && first.alike.is_empty()
-    {
+    if let [first] = selected.as_mut_slice() {
         first.alike = Alike::of(first, alone, baseline);
     }
     let mut fitted: Option<Candidate> = None;
@@ -1174,8 +1172,8 @@ pub(crate) fn forward(
         let mut late_fits = if swaps_left > 0 && !late.is_empty() && !trials.iter().any(|t| t.0.late_in_il()) { swap_fits(&late) } else { Vec::new() };
         let late_swap = late_fits.iter().enumerate().filter(|(_, s)| s.1.0.late_in_il()).min_by(|a, b| a.1.1.0.aic.total_cmp(&b.1.1.0.aic)).map(|(i, _)| i);
         let late_swap = late_swap.map(|i| late_fits.swap_remove(i));
-        // What the step fitted, for the findings that explain its gap alike.
-        let mut rivals: Vec<EffectFit> = trials.iter().map(|t| t.0.clone()).collect();
+        // The step's findings, for those that explain its gap alike (no other fit can be).
+        let mut rivals: Vec<EffectFit> = trials.iter().filter(|t| t.0.finding).map(|t| t.0.clone()).collect();
         // Else the late reading il shows, or the best material step; nothing adding, an effect
         // that replaced one already taken: that swap, when it is a finding (the late ones' fits
         // reused).
@@ -1220,7 +1218,7 @@ pub(crate) fn forward(
             let made = fits_so_far();
             passed_over.retain(|x| !made.iter().any(|(name, _)| *name == x.name));
             let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
-            rivals.extend(more.iter().map(|t| t.0.clone()));
+            rivals.extend(more.iter().filter(|t| t.0.finding).map(|t| t.0.clone()));
             best_material(more.into_iter(), |t| &t.0).filter(|t| t.0.finding).unwrap_or((fit, cand, extended))
         } else {
             (fit, cand, extended)
