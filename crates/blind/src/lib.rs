@@ -691,10 +691,20 @@ impl Outcome {
         self.named.iter().filter(|n| !(late && *n == "sample_delay")).collect()
     }
 
-    /// Whether every withheld effect was named or said alike to a named one ([`gap::Alike`]):
-    /// the diagnosis told the engineer of each, if not as the one it took.
+    /// Whether the diagnosis got the truth ([`Outcome::hit`]) or said what it missed alike to a
+    /// named effect ([`gap::Alike`]): a one-effect dataset's effect said alike, each of several
+    /// named or said alike. The diagnosis told the engineer of each, if not as the one it took.
     pub fn told(&self) -> bool {
-        !self.verdict.starts_with("error") && !self.truth.effects().is_empty() && self.truth.effects().iter().all(|e| self.named.iter().chain(&self.alike).any(|n| n == e))
+        if self.hit() {
+            return true;
+        }
+        let alike = |e: &str| self.alike.iter().any(|a| a == e);
+        match self.truth.effects().as_slice() {
+            _ if self.verdict.starts_with("error") => false,
+            [] => false,
+            [one] => alike(one),
+            all => all.iter().all(|e| alike(e) || self.named_withheld().iter().any(|n| n == e)),
+        }
     }
 
     /// What the diagnosis said, for tables: the named effects joined by `+`, or the verdict
@@ -826,7 +836,7 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         named: effect.iter().filter(|o| o.hit()).count(),
         detectable_cases: effect.iter().filter(|o| o.detectable).count(),
         detectable_named: effect.iter().filter(|o| o.detectable && o.hit()).count(),
-        told: effect.iter().filter(|o| o.hit() || o.told()).count(),
+        told: effect.iter().filter(|o| o.told()).count(),
         clean_cases: clean.len(),
         none: clean.iter().filter(|o| o.hit()).count(),
         with_gap: named.iter().filter(|o| o.closed_percent.is_some()).count(),
@@ -837,7 +847,7 @@ pub fn score(outcomes: &[Outcome]) -> Scores {
         pair_one_named: pair.iter().filter(|o| o.truth.effects().iter().any(|e| o.named.iter().any(|n| n == e))).count(),
         pair_detectable_cases: pair.iter().filter(|o| o.below_detection.is_empty()).count(),
         pair_detectable_named: pair.iter().filter(|o| o.below_detection.is_empty() && o.hit()).count(),
-        pair_told: pair.iter().filter(|o| o.hit() || o.told()).count(),
+        pair_told: pair.iter().filter(|o| o.told()).count(),
         several_cases: several.len(),
         several_named: several.iter().filter(|o| o.hit()).count(),
         several_effects: several.iter().map(|o| o.truth.effects().len()).sum(),
@@ -941,7 +951,10 @@ mod tests {
         let slope_for_switches = Outcome { alike: vec!["switch_resistance".into()], ..outcome(&["diode_drop", "switch_resistance"], &["diode_drop", "diode_resistance"]) };
         let gain_for_esl = Outcome { alike: vec!["esl".into()], ..outcome(&["esl"], &["sensor_gain"]) };
         let missed = outcome(&["esl"], &["sensor_gain"]);
+        // Named, but not first: no more told than named.
+        let named_later = outcome(&["esl"], &["sensor_gain", "esl"]);
         assert!(slope_for_switches.told() && !slope_for_switches.hit());
+        assert!(!named_later.told() && !named_later.hit());
         let s = score(&[slope_for_switches, gain_for_esl, missed]);
         assert_eq!((s.pair_named, s.pair_told, s.named, s.told), (0, 1, 0, 1));
     }
