@@ -579,7 +579,7 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
              dead_time=30e-9, rds_on=10e-3, gate_rise=5e-9, v_drive=10.0, mosfet=None,
              diode=None, snubber=SNUBBER_DEFAULT, warmup=0, solver=None, load_esr=0.0, esl=0.0,
              inductor_saturation=0.0, isat=10.0, cap_dc_bias=0.0, cap_rated_voltage=16.0,
-             rload=0.0, raw=None):
+             rload=0.0, pulse_width_distortion=0.0, raw=None):
     """Simulate a buck converter in ngspice for len(duty) periods.
 
     raw: a dict to receive the raw transient vectors (time, v(out), i(vam), ...),
@@ -606,6 +606,10 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     itself; both incremental, as in the plant's Params (any circuit; 0 leaves the
     linear element).  rload: load resistance from out to 0 beside Iload [ohm]
     (0 leaves it out; the start point accounts for its current).
+    pulse_width_distortion: the switch's on-time beyond d*T [s], signed (a gate
+    drive's turn-off delay minus its turn-on delay), held within [0, T], no
+    pulse made at d = 0 (ideal circuit only: the real circuits' gate drives
+    have delays of their own).
 
     Real circuits only: dead_time (sync: both gates off before each turn-on),
     rds_on (MOSFET on-resistance at Vgs = v_drive, see mosfet_params),
@@ -639,6 +643,10 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
     n = len(duty)
     T = 1.0 / fs
     real = circuit != "ideal"
+    if pulse_width_distortion and real:
+        raise ValueError("pulse_width_distortion applies to the ideal circuit only")
+    # The share of each period the switch conducts: the duty's pulse stretched or shortened.
+    on_share = np.where((duty > 0) & (duty < 1), np.clip(duty + pulse_width_distortion * fs, 0, 1), duty)
     if max_step is None:
         steps = REAL_STEPS_PER_PERIOD[circuit] if real else DEFAULT_STEPS_PER_PERIOD
         if real and inductor_saturation:
@@ -655,10 +663,10 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
                                                mosfet=mosfet)
                 io_dc = io + (vo0 / rload if rload > 0 else 0.0)
         elif rload > 0:
-            v0 = (duty[0] * U - RL * io) * rload / (rload + RL)
+            v0 = (on_share[0] * U - RL * io) * rload / (rload + RL)
             il0, vc0, vo0 = io + v0 / rload, v0, v0
         else:
-            v0 = duty[0] * U - RL * io
+            v0 = on_share[0] * U - RL * io
             il0, vc0, vo0 = io, v0, v0
     else:
         il0, vc0, vo0 = x0
@@ -676,7 +684,7 @@ def simulate(duty, *, L=3.3e-6, RL=0.1, C=100e-6, Rc=0.1, Cl=10e-6, fs=330e3, U=
                   max_step=_num(max_step), tstop=_num(n * T), rawfile="buck.raw")
     if not real:
         netlist = template.substitute(
-            switch_sources=_switch_sources(duty, T, U, edge), **common,
+            switch_sources=_switch_sources(on_share, T, U, edge), **common,
             **{k: (v if isinstance(v, str) else _num(v)) for k, v in SOLVER_OPTIONS.items()})
     else:
         if not (gate_rise > 0 and dead_time >= 0 and v_drive > 0):

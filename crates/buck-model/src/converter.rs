@@ -371,12 +371,13 @@ impl Converter {
         let Inputs { duty, io, vin, vref, .. } = self.inputs;
         let d0 = match self.digital.control {
             Control::Open => duty,
-            Control::Closed if vin > 0.0 => self.params.duty_for(vref, vin, io).clamp(0.0, 1.0),
+            // The command whose stretched pulse holds vref.
+            Control::Closed if vin > 0.0 => (self.params.duty_for(vref, vin, io) - self.params.pulse_width_distortion * self.params.fs).clamp(0.0, 1.0),
             Control::Closed => 0.0,
         };
-        let x0 = if self.start_at_steady_state { self.params.steady_state(d0, vin, io) } else { [0.0; 3] };
+        let x0 = if self.start_at_steady_state { self.params.steady_state(self.params.effective_duty(d0), vin, io) } else { [0.0; 3] };
         self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2], ic: 0.0 });
-        self.pwm_high_before = d0 >= 1.0;
+        self.pwm_high_before = self.params.effective_duty(d0) >= 1.0;
         self.period_index = 0;
         self.digital.restart(d0, self.vout(), x0[0]);
     }
@@ -480,6 +481,7 @@ impl Converter {
             VarId::Rload => p.rload,
             VarId::DiodeResistance => p.diode_resistance,
             VarId::DiodeEmission => p.diode_emission,
+            VarId::PulseWidthDistortion => p.pulse_width_distortion,
             VarId::SwitchNodeCapacitance => p.switch_node_capacitance,
             VarId::SwitchNodeDamping => p.switch_node_damping,
             VarId::LowSideRatio => p.low_side_ratio,
@@ -513,6 +515,7 @@ impl Converter {
                     VarId::DiodeDrop => p.diode_drop = value,
                     VarId::DiodeResistance => p.diode_resistance = value,
                     VarId::DiodeEmission => p.diode_emission = value,
+                    VarId::PulseWidthDistortion => p.pulse_width_distortion = value,
                     VarId::SwitchNodeCapacitance => p.switch_node_capacitance = value,
                     VarId::SwitchNodeDamping => p.switch_node_damping = value,
                     VarId::LowSideRatio => p.low_side_ratio = value,
@@ -631,7 +634,7 @@ impl Converter {
                 self.io_integral = 0.0;
                 self.phase = 0.0;
                 self.at_period_start = true;
-                self.pwm_high_before = self.latched_duty >= 1.0;
+                self.pwm_high_before = self.params.effective_duty(self.latched_duty) >= 1.0;
                 self.period_index += 1;
                 if !self.adc_reads_within_period() {
                     self.digital.sample(self.vout(), self.x[0], self.period_index);
@@ -723,7 +726,7 @@ impl Converter {
         if self.mode == Mode::Averaged {
             return (Gate::Averaged, period);
         }
-        let on = self.latched_duty * period;
+        let on = self.params.effective_duty(self.latched_duty) * period;
         if self.params.asynchronous() {
             return if self.phase < on { (Gate::High, on) } else { (Gate::Off, period) };
         }
@@ -812,7 +815,10 @@ impl Converter {
         let (r, u_sw) = match topology {
             Topology::High => (p.switching_resistance(1.0), vin),
             Topology::Low => (p.switching_resistance(0.0), 0.0),
-            Topology::Averaged => (p.switching_resistance(self.latched_duty), self.latched_duty * vin),
+            Topology::Averaged => {
+                let d = p.effective_duty(self.latched_duty);
+                (p.switching_resistance(d), d * vin)
+            }
             Topology::LowDiode => (r_diode, self.low_clamp()),
             Topology::HighDiode => (r_diode, self.high_clamp()),
             Topology::Blocked => (p.rl, 0.0),

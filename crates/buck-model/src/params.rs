@@ -55,6 +55,13 @@ pub struct Params {
     pub dcm: bool,
     /// `dead_time`: both switches off after the high-side turn-off and before its turn-on [s].
     pub dead_time: f64,
+    /// The high side's on-time beyond the PWM's `d·T` [s], signed: a gate drive's turn-off
+    /// delay minus its turn-on delay (pulse-width distortion; a MOSFET's turn-off delay is the
+    /// longer, its gate discharging from the plateau). In CCM it moves `vout` by
+    /// `vin·pulse_width_distortion/T`. A pulse the PWM gives is stretched or shortened, the
+    /// on-time held within `[0, T]`; none is made where it gives none (duty 0), and a duty of 1
+    /// stays on. 0 (the default): the switch follows the PWM. Both modes.
+    pub pulse_width_distortion: f64,
     /// Capacitance of the switch node to ground [F] (the switches' output capacitances, the
     /// diode's junction, the layout). While both switches are off the inductor current
     /// charges it: the node slews from the rail a switch held it at toward the diode clamp the
@@ -200,6 +207,7 @@ impl Default for Params {
             diode_emission: 0.0,
             dcm: false,
             dead_time: 0.0,
+            pulse_width_distortion: 0.0,
             switch_node_capacitance: 0.0,
             switch_node_ring: false,
             switch_node_damping: 0.0,
@@ -252,6 +260,7 @@ impl Params {
             (VarId::DiodeResistance, self.diode_resistance),
             (VarId::DiodeEmission, self.diode_emission),
             (VarId::DeadTime, self.dead_time),
+            (VarId::PulseWidthDistortion, self.pulse_width_distortion),
             (VarId::SwitchNodeCapacitance, self.switch_node_capacitance),
             (VarId::SwitchNodeDamping, self.switch_node_damping),
             (VarId::LoadEsr, self.load_esr),
@@ -287,6 +296,15 @@ impl Params {
     /// read: `sample_delay + sample_duty_share·(duty − ½)·period` [s].
     pub fn sample_instant(&self, duty: f64, period: f64) -> f64 {
         self.sample_delay + self.sample_duty_share * (duty - 0.5) * period
+    }
+
+    /// Share of the period the high side conducts under the PWM duty `duty`
+    /// ([`Params::pulse_width_distortion`]): `duty` itself without distortion.
+    pub fn effective_duty(&self, duty: f64) -> f64 {
+        if self.pulse_width_distortion == 0.0 || duty <= 0.0 || duty >= 1.0 {
+            return duty;
+        }
+        (duty + self.pulse_width_distortion * self.fs).clamp(0.0, 1.0)
     }
 
     /// Whether the low side is a diode (asynchronous buck): `dcm` or a positive `diode_drop`.
