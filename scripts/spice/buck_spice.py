@@ -830,6 +830,10 @@ def main(argv=None):
     p.add_argument("--cap-dc-bias", type=float, default=0.0,
                    help="fraction of Cl lost at the rated voltage (quadratic in the voltage)")
     p.add_argument("--cap-rated-voltage", type=float, default=16.0, help="rated voltage of Cl [V]")
+    p.add_argument("--pulse-width-distortion", type=float, default=0.0,
+                   help="the switch's on-time beyond d*T, signed [s] (ideal circuit only)")
+    p.add_argument("--noise", type=float, nargs=2, default=[0.0, 0.0], metavar=("V", "A"),
+                   help="white noise σ added to the vout [V] and il [A] readings (seeded by --seed)")
     p.add_argument("--dead-time", type=float, default=30e-9, help="sync only [s]")
     p.add_argument("--rds-on", type=float, default=10e-3, help="MOSFET on-resistance [ohm]")
     p.add_argument("--gate-rise", type=float, default=5e-9, help="gate ramp width [s]")
@@ -855,14 +859,19 @@ def main(argv=None):
     r = simulate(duty, max_step=a.max_step, workdir=a.workdir, circuit=a.circuit, raw=raw,
                  warmup=a.warmup, load_esr=a.load_esr, esl=a.esl,
                  inductor_saturation=a.inductor_saturation, isat=a.isat, cap_dc_bias=a.cap_dc_bias,
-                 cap_rated_voltage=a.cap_rated_voltage, rload=a.rload, **real, **params)
+                 cap_rated_voltage=a.cap_rated_voltage, rload=a.rload,
+                 pulse_width_distortion=a.pulse_width_distortion, **real, **params)
     if a.time:
         print(f"wall time (ngspice + parsing): {_time.perf_counter() - t0:.3f} s "
               f"for {len(duty)} + {a.warmup} warm-up periods ({a.circuit})", file=sys.stderr)
 
     n = len(duty)
+    # The readings' noise (a measurement's), seeded; the averages stay exact.
+    rng = np.random.default_rng(a.seed)
+    vout_read = r["vout_start"] + (rng.normal(0.0, a.noise[0], n) if a.noise[0] > 0 else 0.0)
+    il_read = r["il_start"] + (rng.normal(0.0, a.noise[1], n) if a.noise[1] > 0 else 0.0)
     cols = [("time", r["time"]), ("duty", r["duty"]), ("vin", np.full(n, a.U)),
-            ("io", np.full(n, a.io)), ("vout", r["vout_start"]), ("il", r["il_start"]),
+            ("io", np.full(n, a.io)), ("vout", vout_read), ("il", il_read),
             ("vc", r["vc_start"]), ("vout_avg", r["vout_avg"]), ("il_avg", r["il_avg"])]
     lines = [f"# {k} = {params[k]!r}" for k in ("fs", "L", "RL", "C", "Rc", "Cl", "U", "io")]
     if a.rload > 0:
@@ -887,6 +896,10 @@ def main(argv=None):
     if a.truth:
         t = truth(a.circuit, duty0=float(duty[0]), L=a.L, RL=a.RL, fs=a.fs, U=a.U, io=a.io, **real)
         t["warmup"] = a.warmup
+        if a.pulse_width_distortion:
+            t["effects"]["pulse_width_distortion"] = {"seconds": a.pulse_width_distortion}
+        if any(a.noise):
+            t["noise"] = {"vout": a.noise[0], "il": a.noise[1]}
         # The circuit values simulated, Cl included: the answer an identification is checked against.
         t["params"] = dict(params, **({"rload": a.rload} if a.rload > 0 else {}))
         with open(a.truth, "w") as f:

@@ -117,6 +117,10 @@ pub enum Free {
     Esl,
     /// `dead_time` of the half bridge ([`Structure::Exact`] only).
     DeadTime,
+    /// `pulse_width_distortion`: the high side's on-time beyond the PWM's `d·T`, fitted
+    /// positive (a gate drive's turn-off slower than its turn-on; a shortened pulse reads as
+    /// a dead time) ([`Structure::Simulated`] only).
+    PulseWidthDistortion,
     /// `diode_drop` of the freewheeling diode ([`Structure::Exact`] only; a positive value makes
     /// the buck asynchronous).
     DiodeDrop,
@@ -167,6 +171,7 @@ impl Free {
             Free::LoadEsr => "load_esr",
             Free::Esl => "esl",
             Free::DeadTime => "dead_time",
+            Free::PulseWidthDistortion => "pulse_width_distortion",
             Free::DiodeDrop => "diode_drop",
             Free::DiodeResistance => "diode_resistance",
             Free::SwitchNodeCapacitance => "switch_node_capacitance",
@@ -283,6 +288,7 @@ impl Free {
             Free::LoadEsr => p.load_esr,
             Free::Esl => p.esl,
             Free::DeadTime => p.dead_time,
+            Free::PulseWidthDistortion => p.pulse_width_distortion,
             Free::DiodeDrop => p.diode_drop,
             Free::DiodeResistance => p.diode_resistance,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance,
@@ -310,6 +316,7 @@ impl Free {
             Free::LoadEsr => p.load_esr = value,
             Free::Esl => p.esl = value,
             Free::DeadTime => p.dead_time = value,
+            Free::PulseWidthDistortion => p.pulse_width_distortion = value,
             Free::DiodeDrop => p.diode_drop = value,
             Free::DiodeResistance => p.diode_resistance = value,
             Free::SwitchNodeCapacitance => p.switch_node_capacitance = value,

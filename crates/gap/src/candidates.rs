@@ -35,11 +35,11 @@ pub(crate) struct Fitted {
 /// is, so every other candidate is fitted on the averaged and on the PWM model, and the better
 /// held-out fit is judged against the model it extends.
 ///
-/// The circuit effects `diode_drop`, `dcm`, `dead_time`, `inductor_saturation`, `cap_dc_bias`,
-/// `load_esr` and `esl` are fitted on switched data only, with the plant simulator itself
-/// (`estimator::simulated`: nonlinear, exact through DCM and every state event) and
-/// `[Cl, effect]` free, judged against the simulator with Cl alone. `adc_quantization` is
-/// detected in the readings (see `quantization`).
+/// The circuit effects `diode_drop`, `dcm`, `dead_time`, `pulse_width_distortion`,
+/// `inductor_saturation`, `cap_dc_bias`, `load_esr` and `esl` are fitted on switched data only,
+/// with the plant simulator itself (`estimator::simulated`: nonlinear, exact through DCM and
+/// every state event) and `[Cl, effect]` free, judged against the simulator with Cl alone.
+/// `adc_quantization` is detected in the readings (see `quantization`).
 pub(crate) fn fit_all(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions, base: &Candidate, baseline: &Baseline, n_est: usize) -> Fitted {
     let nominal_opts = nominal_options(opts);
     let judge = |name, t: Trial, against: &Candidate| judge(name, t, against, n_est, baseline);

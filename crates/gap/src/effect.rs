@@ -13,7 +13,7 @@ use estimator::validate::{Z_99, chi2_99};
 use serde::Serialize;
 
 /// Every effect of the design table, by its contract name.
-pub const EFFECTS: [&str; 20] = [
+pub const EFFECTS: [&str; 21] = [
     "switching_ripple",
     "switch_resistance",
     "diode_drop",
@@ -34,6 +34,7 @@ pub const EFFECTS: [&str; 20] = [
     "unequal_switches",
     "sensor_offset",
     "sensor_gain",
+    "pulse_width_distortion",
 ];
 
 /// Whether the effect `name` calibrates the vout reading (its zero or gain error) rather than
@@ -43,6 +44,15 @@ pub const EFFECTS: [&str; 20] = [
 /// in for). An explanation of last resort (see `select::best_material`).
 pub(crate) fn calibrates_reading(name: &str) -> bool {
     frees_only(name, Free::calibrates_reading)
+}
+
+/// Whether the effect `name` shows in CCM mostly as a level of `vout`: the reading's calibration
+/// ([`calibrates_reading`]), or a gate drive's pulse-width distortion (`vin·δ/T`), which any
+/// unmodelled drop or drift makes in part. Such an effect is judged against the circuit as
+/// designed, never offered for Cl's interval test, and named last (see `select`,
+/// [`EffectFit::last_resort`]).
+pub(crate) fn makes_a_level(name: &str) -> bool {
+    calibrates_reading(name) || name == "pulse_width_distortion"
 }
 
 /// Whether the effect `name`'s form approximates a device's curve or edge rather than being the
@@ -703,9 +713,10 @@ impl EffectFit {
         self.finding &= self.material;
     }
 
-    /// A calibration of the vout reading ([`calibrates_reading`]), not of the circuit.
-    pub(crate) fn calibrates_reading(&self) -> bool {
-        calibrates_reading(self.name)
+    /// A level of `vout` that anything else could make ([`makes_a_level`]): the reading's
+    /// calibration, or a stretched pulse.
+    pub(crate) fn makes_a_level(&self) -> bool {
+        makes_a_level(self.name)
     }
 
     /// Whether `simpler` is a special case of it: an inductor's saturation whose knee lies below
@@ -715,10 +726,11 @@ impl EffectFit {
     }
 
     /// Whether it is named after the circuit's explanations ([`crate::select::best_material`]):
-    /// what the vout reading does (its calibration, its filter) rather than the circuit, unless
-    /// it explains what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.
+    /// what the vout reading does (its calibration, its filter) rather than the circuit, or a
+    /// level the circuit makes that anything else could ([`makes_a_level`]), unless it explains
+    /// what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.
     pub(crate) fn last_resort(&self) -> bool {
-        reads_vout(self.name) && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
+        (reads_vout(self.name) || makes_a_level(self.name)) && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
     }
 
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where
@@ -1170,7 +1182,7 @@ pub(crate) const DELAYS: [isize; 3] = [-1, 1, 2];
 /// saturation, a voltage-dependent Cl): name, extra free parameters with start values (in units
 /// of [`start_unit`]: a time as a fraction of the period, a load ESR as one of C's), and whether
 /// the effect switches the half bridge to a diode low side (`dcm`).
-pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 11] = [
+pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 12] = [
     // Each magnitude from two starts (a drop far above its start leaves a DCM fit in a wrong
     // valley, Cl at 0.1 µF); each start with the Cl grid of `fit_from`.
     SimulatedEffect { name: "diode_drop", extra: &[(Free::DiodeDrop, 0.4)], also_from: &[0.7], also_locked: &[], dcm: false },
@@ -1205,6 +1217,11 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 11] = [
     // start each, a small step away from zero so the screen sees its direction).
     SimulatedEffect { name: "sensor_offset", extra: &[(Free::VoutOffset, 1e-3)], also_from: &[], also_locked: &[], dcm: false },
     SimulatedEffect { name: "sensor_gain", extra: &[(Free::VoutGainError, 1e-3)], also_from: &[], also_locked: &[], dcm: false },
+    // Nor this: the gate drive's pulse-width distortion, its turn-off delay beyond its turn-on
+    // delay (a MOSFET's gate discharging from the Miller plateau), which stretches every pulse
+    // and lifts vout by vin·δ/T; 1/300 and 1/60 of the period (10 and 50 ns at 330 kHz). Only a
+    // stretch: a shortened pulse is what a dead time does.
+    SimulatedEffect { name: "pulse_width_distortion", extra: &[(Free::PulseWidthDistortion, 1.0 / 300.0)], also_from: &[1.0 / 60.0], also_locked: &[], dcm: false },
 ];
 
 /// `sensor_filter` where the inductor current shows the reading late: the filter before an ADC
@@ -1228,7 +1245,7 @@ pub(crate) fn simulated_form(name: &str, frees: impl Fn(Free) -> bool) -> Option
 /// what they are at any scale).
 fn start_unit(f: Free, p: &Params) -> f64 {
     match f {
-        Free::DeadTime | Free::SampleDelay | Free::VoutFilter => p.period(),
+        Free::DeadTime | Free::PulseWidthDistortion | Free::SampleDelay | Free::VoutFilter => p.period(),
         Free::LoadEsr => p.rc,
         _ => 1.0,
     }
@@ -1489,6 +1506,13 @@ pub(crate) const MAX_GAIN_ERROR: f64 = 0.1;
 /// diode up to about 1.3 V and a SiC Schottky up to about 1.8 V at its rated current.
 pub(crate) const MAX_DIODE_DROP: f64 = 2.0;
 
+/// Largest pulse-width distortion of a gate drive, as a share of the period: a MOSFET's
+/// turn-off delay exceeds its turn-on delay by up to a few tens of nanoseconds at a few hundred
+/// kHz, an IGBT's by a few hundred at tens of kHz, about 1 % either way. A fit beyond counts
+/// as ended on a bound, no finding: a stretch of 7–20 % stood in for a diode buck's DCM, its
+/// Cl run up to millifarads (third generator, L drifted 13 %).
+pub(crate) const MAX_PULSE_WIDTH_SHARE: f64 = 0.03;
+
 /// Whether the instant of a reading in the circuit `p` ended on a bound of its range at the
 /// duties `duty_range`: its latest at [`MAX_SAMPLE_DELAY`] of the period, or, locked to the
 /// PWM, its earliest at the period start (a fixed instant's log scale never reaches zero).
@@ -1542,7 +1566,8 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
         || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range))
         || t.params.get(Free::VoutFilter.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND))
-        || t.params.get(Free::VoutGainError.name()).is_some_and(|g| g.abs() > MAX_GAIN_ERROR);
+        || t.params.get(Free::VoutGainError.name()).is_some_and(|g| g.abs() > MAX_GAIN_ERROR)
+        || t.params.get(Free::PulseWidthDistortion.name()).is_some_and(|&d| d > MAX_PULSE_WIDTH_SHARE * t.cand.fit.params.period());
     let fit = EffectFit {
         name,
         params: t.params,

@@ -17,8 +17,9 @@ use nalgebra::{DMatrix, DVector};
 
 /// The effects linear at zero, with the magnitude of the finite-difference probe (small against
 /// the design table's range, large against rounding).
-const LINEAR_AT_ZERO: [(&str, Free, f64); 6] = [
+const LINEAR_AT_ZERO: [(&str, Free, f64); 7] = [
     ("dead_time", Free::DeadTime, 2e-9),
+    ("pulse_width_distortion", Free::PulseWidthDistortion, 2e-9),
     ("load_esr", Free::LoadEsr, 2e-3),
     ("esl", Free::Esl, 0.1e-9),
     ("cap_dc_bias", Free::CapDcBias, 0.02),

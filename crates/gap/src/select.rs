@@ -27,8 +27,8 @@ use rayon::prelude::*;
 
 use crate::effect::{
     Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial,
-    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms,
-    simulated_form, variance,
+    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, makes_a_level, reads_vout, record_bias_law,
+    residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -316,7 +316,10 @@ impl Stack {
         // A reading's calibration is judged against the circuit as designed (its values may
         // have drifted), read as the data was taken (a late reading, the other calibration): on
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
-        // knee in DCM took a 2 % gain error on top of a diode drop).
+        // knee in DCM took a 2 % gain error on top of a diode drop). A stretched pulse is a
+        // first step only: on top of anything, its level is one every drop, drift and offset
+        // makes too (a 4th step's stretch of 3 ns kept a path of stand-ins from its swap, and
+        // one on a drifted L took the place of the reading's offset in a path of stand-ins).
         let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || reads_vout(n));
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         // No filter on readings shifted by a row: lagging a reading taken at the period's end
@@ -324,7 +327,7 @@ impl Stack {
         // and the path from it: see `rival`); an independent-harness buck read at 0.85 of the
         // period was named the row shift, the dead time and a 0.16 T filter under four stand-ins.
         let in_model = |name: &str| has(name) || (diode && DIODE_TOPOLOGY.contains(&name)) || (name == "sensor_filter" && self.delay != 0);
-        for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && (as_designed || !calibrates_reading(e.name))) {
+        for e in SIMULATED_EFFECTS.iter().filter(|e| !in_model(e.name) && e.name != "pulse_width_distortion" && (as_designed || !calibrates_reading(e.name))) {
             out.push(self.extension_of(e, io_mean));
         }
         out
@@ -603,8 +606,8 @@ pub(crate) fn best_material<T>(items: impl Iterator<Item = T>, fit: impl Fn(&T) 
     let passing: Vec<T> = items.filter(|t| fit(t).significant && fit(t).material && !fit(t).at_bound).collect();
     let no_better_than_nested = |e: &EffectFit| passing.iter().map(&fit).any(|simpler| e.nests(simpler) && simpler.rms_after <= e.rms_after);
     let kept: Vec<bool> = passing.iter().map(|t| !no_better_than_nested(fit(t))).collect();
-    let circuit_explains_all = passing.iter().map(&fit).any(|e| !reads_vout(e.name) && e.closed_of_remaining.is_some_and(|c| c >= EXPLAINS_ALL));
-    let last = |e: &EffectFit| e.last_resort() || (circuit_explains_all && e.calibrates_reading());
+    let circuit_explains_all = passing.iter().map(&fit).any(|e| !reads_vout(e.name) && !e.makes_a_level() && e.closed_of_remaining.is_some_and(|c| c >= EXPLAINS_ALL));
+    let last = |e: &EffectFit| e.last_resort() || (circuit_explains_all && e.makes_a_level());
     passing.into_iter().zip(kept).filter_map(|(t, kept)| kept.then_some(t)).min_by(|a, b| (last(fit(a)), fit(a).aic).partial_cmp(&(last(fit(b)), fit(b).aic)).unwrap_or(std::cmp::Ordering::Equal))
 }
 
@@ -621,11 +624,11 @@ const RIVAL_CLOSED: f64 = 90.0;
 /// a 53 ns dead time first (97.7 % of the gap against the diode's 94.2 %), then a 9.8 % "gain
 /// error" of the reading for the diode's `(U + Vf)/U`, and ended at 2.7 floors; from the diode
 /// the path ends at the floor with the diode, its slope resistance, the switch and L −11 %
-/// (true −12 %). A finding of the circuit (no reading's calibration) that closes at least
+/// (true −12 %). A finding of the circuit (no level of last resort) that closes at least
 /// [`RIVAL_CLOSED`] % of the gap, the lowest Akaike criterion of those.
 pub(crate) fn topology_rival<'a>(effects: &'a [EffectFit], first: &EffectFit) -> Option<&'a EffectFit> {
     let diode = |e: &EffectFit| DIODE_TOPOLOGY.contains(&e.name);
-    let candidates = effects.iter().filter(|e| e.finding && diode(e) != diode(first) && !e.calibrates_reading() && e.closed_percent.is_some_and(|c| c >= RIVAL_CLOSED));
+    let candidates = effects.iter().filter(|e| e.finding && diode(e) != diode(first) && !e.makes_a_level() && e.closed_percent.is_some_and(|c| c >= RIVAL_CLOSED));
     best_material(candidates, |e| e)
 }
 
@@ -672,12 +675,13 @@ pub(crate) fn alternatives<'a>(effects: &'a [EffectFit], tried: &[&str]) -> Vec<
     out
 }
 
-/// The circuit's findings of the first step (no reading's calibration) none of whose forms was
+/// The circuit's findings of the first step (no level of last resort: a reading's calibration, a
+/// stretched pulse, [`makes_a_level`]) none of whose forms was
 /// `tried` (a drop and DCM are one first step: the low side a diode).
 fn untried_first_steps<'a>(effects: &'a [EffectFit], tried: &[&str]) -> impl Iterator<Item = &'a EffectFit> {
     let diode_tried = tried.iter().any(|n| DIODE_TOPOLOGY.contains(n));
     let tried_as = move |e: &EffectFit| tried.contains(&e.name) || (diode_tried && DIODE_TOPOLOGY.contains(&e.name));
-    effects.iter().filter(move |e| e.finding && !e.calibrates_reading() && !tried_as(e))
+    effects.iter().filter(move |e| e.finding && !e.makes_a_level() && !tried_as(e))
 }
 
 /// Points of the gap above the floor within which another first step closes what the one
@@ -854,9 +858,10 @@ pub(crate) fn for_cl(
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
     let io_mean = io_mean(data);
-    // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
-    // it; what makes the output-error and high-pass fits disagree is in the dynamics.
-    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data)).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
+    // Not a reading's calibration nor a stretched pulse: they move vout's levels, where the
+    // forward selection looks for them; what makes the output-error and high-pass fits disagree
+    // is in the dynamics.
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data)).into_iter().filter(|x| !makes_a_level(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, &against, extensions, 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -1114,10 +1119,11 @@ pub(crate) fn forward(
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
-        // A reading's calibration is the explanation of last resort (see `best_material`): never
-        // the first-alone shortcut below, fitted beside the first round's other fits (the most
-        // promising of them), and chosen only where no circuit extension is material.
-        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name));
+        // A reading's calibration, and a stretched pulse, are explanations of last resort (see
+        // `best_material`): never the first-alone shortcut below, fitted beside the first round's
+        // other fits (the most promising of them), and chosen only where no circuit extension is
+        // material.
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| makes_a_level(x.name));
         extensions = circuit;
         let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
         let mut settled = false;
@@ -1214,7 +1220,7 @@ pub(crate) fn forward(
         // reading's calibration, the explanation of last resort: a lab buck's 19 nH ESL read
         // 359 ns late, ranked sixth on its 1 nH probe, took a −0.011 % gain of the reading on top
         // of the instant with Cl 14 % off, where the ESL reaches the floor with Cl right.
-        let (mut fit, cand, extended) = if (!fit.finding || fit.calibrates_reading()) && !within {
+        let (mut fit, cand, extended) = if (!fit.finding || fit.makes_a_level()) && !within {
             let made = fits_so_far();
             passed_over.retain(|x| !made.iter().any(|(name, _)| *name == x.name));
             let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
@@ -1272,11 +1278,11 @@ fn better_fit(refit: &Candidate, last: &EffectFit) -> bool {
 /// read 47 ns late took the late reading first (il shows it), after which the ESR, probed at
 /// 10 mΩ, ranked twelfth of thirteen, though alone it had closed 99.3 % of the gap; an ESL and a
 /// filter took its place, and the path ended above where the ESR alone had. The best such
-/// effect (a finding of the circuit, no reading's calibration) named by one extension only.
+/// effect (a finding of the circuit, no level of last resort) named by one extension only.
 fn proven_alone(offered: &mut Vec<Extension>, alone: &[EffectFit], rms_so_far: f64, baseline: &Baseline) -> Option<Extension> {
     let unique = |name: &str| offered.iter().filter(|x| x.name == name).count() == 1;
     let beats = |e: &EffectFit| baseline.closed_of_material_gap(rms_so_far, e.rms_after).is_some_and(|c| c >= MATERIAL_SHARE);
-    let best = alone.iter().filter(|e| e.finding && !e.calibrates_reading() && beats(e) && unique(e.name)).min_by(|a, b| a.rms_after.total_cmp(&b.rms_after))?;
+    let best = alone.iter().filter(|e| e.finding && !e.makes_a_level() && beats(e) && unique(e.name)).min_by(|a, b| a.rms_after.total_cmp(&b.rms_after))?;
     let k = offered.iter().position(|x| x.name == best.name)?;
     Some(offered.remove(k))
 }
