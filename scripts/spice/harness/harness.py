@@ -155,7 +155,9 @@ def power_stage(a, duty, T):
     # sync: each turn-on waits for the other gate's ramp to end plus the dead time; async: the
     # ramps are centred on the PWM instants like the sw topology's.
     lag = a.ramp + a.dead_time if sync else 0.0
-    gate_h, xh = gate_chain("xh", "xh", duty, T, lambda d: (lag, d * T), a.ramp, not sync)
+    # A drive whose turn-off is slower than its turn-on holds the high side's gate on past d*T.
+    stretch = a.pulse_stretch
+    gate_h, xh = gate_chain("xh", "xh", duty, T, lambda d: (lag, d * T + stretch), a.ramp, not sync)
     gates = [gate_h]
     stage = [
         f"Ehs   dh  sw  {xh} 0 1",
@@ -166,7 +168,7 @@ def power_stage(a, duty, T):
     ]
     dp = {"is": a.diode_is, "n": a.diode_n, "rs": a.diode_rs, "cjo": a.diode_cjo}
     if sync:
-        gate_l, xl = gate_chain("xl", "xl", duty, T, lambda d: (d * T + lag, T), a.ramp, False)
+        gate_l, xl = gate_chain("xl", "xl", duty, T, lambda d: (d * T + stretch + lag, T), a.ramp, False)
         gates.append(gate_l)
         stage += [
             f"Els   dl  0   {xl} 0 1",
@@ -350,6 +352,8 @@ def parser():
     add("--cgs", type=float, default=2e-9, help="gate-source capacitance [F] (sync, async)")
     add("--csw", type=float, default=200e-12, help="switch-node capacitance [F]")
     add("--dead-time", type=float, default=0.0, help="delay of each turn-on [s] (sync)")
+    add("--pulse-stretch", type=float, default=0.0,
+        help="the high side's gate held on this long past d*T, a drive's turn-off slower than its turn-on [s] (sync, async)")
     add("--diode-is", type=float, default=1e-11, help="diode saturation current [A]")
     add("--diode-n", type=float, default=1.2, help="diode emission coefficient")
     add("--diode-rs", type=float, default=15e-3, help="diode series resistance [ohm]")
