@@ -48,9 +48,9 @@ pub(crate) fn calibrates_reading(name: &str) -> bool {
 
 /// Whether the effect `name` shows in CCM mostly as a level of `vout`: the reading's calibration
 /// ([`calibrates_reading`]), or a gate drive's pulse-width distortion (`vin·δ/T`), which any
-/// unmodelled drop or drift makes in part. Such an effect is judged against the circuit as
-/// designed, never offered for Cl's interval test, and named last (see `select`,
-/// [`EffectFit::last_resort`]).
+/// unmodelled drop or drift makes in part. Such an effect is named last
+/// ([`EffectFit::last_resort`]) and never starts a rival path (see `select`); a reading's
+/// calibration is judged on the circuit as designed, a stretched pulse is a first step only.
 pub(crate) fn makes_a_level(name: &str) -> bool {
     calibrates_reading(name) || name == "pulse_width_distortion"
 }

@@ -27,8 +27,8 @@ use rayon::prelude::*;
 
 use crate::effect::{
     Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial,
-    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, makes_a_level, reads_vout, record_bias_law,
-    residual, rms, simulated_form, variance,
+    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms,
+    simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -318,8 +318,9 @@ impl Stack {
         // top of a mechanism the design lacks, what is left is that mechanism's (a Schottky's
         // knee in DCM took a 2 % gain error on top of a diode drop). A stretched pulse is a
         // first step only: on top of anything, its level is one every drop, drift and offset
-        // makes too (a 4th step's stretch of 3 ns kept a path of stand-ins from its swap, and
-        // one on a drifted L took the place of the reading's offset in a path of stand-ins).
+        // makes too (harness 3030/24: a 3 ns stretch as a fourth step completed a path of
+        // stand-ins that had given way to the switches'; 3434/24: judged on the circuit as
+        // designed, one changed how a path of stand-ins ended).
         let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || reads_vout(n));
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         // No filter on readings shifted by a row: lagging a reading taken at the period's end
@@ -676,7 +677,7 @@ pub(crate) fn alternatives<'a>(effects: &'a [EffectFit], tried: &[&str]) -> Vec<
 }
 
 /// The circuit's findings of the first step (no level of last resort: a reading's calibration, a
-/// stretched pulse, [`makes_a_level`]) none of whose forms was
+/// stretched pulse, [`crate::effect::makes_a_level`]) none of whose forms was
 /// `tried` (a drop and DCM are one first step: the low side a diode).
 fn untried_first_steps<'a>(effects: &'a [EffectFit], tried: &[&str]) -> impl Iterator<Item = &'a EffectFit> {
     let diode_tried = tried.iter().any(|n| DIODE_TOPOLOGY.contains(n));
@@ -858,10 +859,9 @@ pub(crate) fn for_cl(
     let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
     stack.params = against.fit.params;
     let io_mean = io_mean(data);
-    // Not a reading's calibration nor a stretched pulse: they move vout's levels, where the
-    // forward selection looks for them; what makes the output-error and high-pass fits disagree
-    // is in the dynamics.
-    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data)).into_iter().filter(|x| !makes_a_level(x.name)).collect();
+    // Not a reading's calibration: it moves vout's levels, where the forward selection looks for
+    // it; what makes the output-error and high-pass fits disagree is in the dynamics.
+    let extensions: Vec<Extension> = stack.extensions(nominal, switched_data, io_mean, stack.blocked_share(data)).into_iter().filter(|x| !calibrates_reading(x.name)).collect();
     // The linearized move only sorts out the hopeless (half the tolerance: it is rough).
     let mut extensions = screen(data, &stack, &against, extensions, 0.0, 0.5 * baseline.tolerance, n_est);
     extensions.truncate(SCREEN_KEEP);
@@ -1119,11 +1119,10 @@ pub(crate) fn forward(
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
-        // A reading's calibration, and a stretched pulse, are explanations of last resort (see
-        // `best_material`): never the first-alone shortcut below, fitted beside the first round's
-        // other fits (the most promising of them), and chosen only where no circuit extension is
-        // material.
-        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| makes_a_level(x.name));
+        // A reading's calibration is the explanation of last resort (see `best_material`): never
+        // the first-alone shortcut below, fitted beside the first round's other fits (the most
+        // promising of them), and chosen only where no circuit extension is material.
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name));
         extensions = circuit;
         let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
         let mut settled = false;
@@ -1220,7 +1219,7 @@ pub(crate) fn forward(
         // reading's calibration, the explanation of last resort: a lab buck's 19 nH ESL read
         // 359 ns late, ranked sixth on its 1 nH probe, took a −0.011 % gain of the reading on top
         // of the instant with Cl 14 % off, where the ESL reaches the floor with Cl right.
-        let (mut fit, cand, extended) = if (!fit.finding || fit.makes_a_level()) && !within {
+        let (mut fit, cand, extended) = if (!fit.finding || calibrates_reading(fit.name)) && !within {
             let made = fits_so_far();
             passed_over.retain(|x| !made.iter().any(|(name, _)| *name == x.name));
             let more: Vec<_> = passed_over.par_iter().filter_map(try_one).collect();
