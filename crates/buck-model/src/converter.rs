@@ -375,9 +375,11 @@ impl Converter {
             Control::Closed if vin > 0.0 => (self.params.duty_for(vref, vin, io) - self.params.pulse_width_distortion * self.params.fs).clamp(0.0, 1.0),
             Control::Closed => 0.0,
         };
-        let x0 = if self.start_at_steady_state { self.params.steady_state(self.params.effective_duty(d0), vin, io) } else { [0.0; 3] };
+        // The share of the period the high side conducts under that command.
+        let on = self.params.effective_duty(d0);
+        let x0 = if self.start_at_steady_state { self.params.steady_state(on, vin, io) } else { [0.0; 3] };
         self.set_state(State { il: x0[0], vc: x0[1], vo: x0[2], ic: 0.0 });
-        self.pwm_high_before = self.params.effective_duty(d0) >= 1.0;
+        self.pwm_high_before = on >= 1.0;
         self.period_index = 0;
         self.digital.restart(d0, self.vout(), x0[0]);
     }
