@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from captures import generate
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -101,8 +102,7 @@ def third_diagnosis(buckid_bin: Path, tmp_path: Path, *third_args: str):
     `third_args`, e.g. `--family pol --case several --seed 1901`), diagnosed by `buckid diagnose
     --nominal switched`: `(truth, diagnosis JSON, the CLI's stdout)`."""
     data, truth_file, out = tmp_path / "third.csv", tmp_path / "truth.json", tmp_path / "dx.json"
-    subprocess.run([sys.executable, str(REPO / "scripts" / "spice" / "third" / "third.py"), *third_args,
-                    "--out", str(data), "--truth", str(truth_file)], check=True, capture_output=True, timeout=900)
+    generate(REPO / "scripts" / "spice" / "third" / "third.py", list(third_args), {"--out": data, "--truth": truth_file})
     proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-4000:]

@@ -9,15 +9,9 @@ effect is named, the JSON says which law, and Cl holds.
 
 from __future__ import annotations
 
-import shutil
-
-import pytest
 from conftest import third_diagnosis
 
-needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
 
-
-@needs_ngspice
 def test_a_ceramic_swung_across_its_law_is_found_under_the_shape_it_follows(buckid_bin, tmp_path):
     truth, dx, _ = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "single", "--effect", "cap_dc_bias",
                                    "--seed", "4302", "--periods", "3001")

@@ -16,29 +16,24 @@ refit frees too.
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
-import pytest
+from captures import generate
 from conftest import third_diagnosis
 
 REPO = Path(__file__).resolve().parents[2]
 HARNESS = REPO / "scripts" / "spice" / "harness" / "harness.py"
 
-needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
-
 CL = 10e-6
 DEAD_TIME, RON, L, RC, ADC = 30e-9, 0.015, 2.9e-6, 0.06, 100e-9
 
 
-@needs_ngspice
 def test_five_effects_at_once_are_named_and_cl_holds(buckid_bin, tmp_path):
     data, out = tmp_path / "capture.csv", tmp_path / "dx.json"
-    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--seed", "5", "--cl", str(CL), "--io", "3",
-                    "--dead-time", str(DEAD_TIME), "--ron-hs", str(RON), "--ron-ls", str(RON), "--L", str(L), "--Rc", str(RC),
-                    "--adc-delay", str(ADC), "--out", str(data)], check=True, capture_output=True, timeout=600)
+    generate(HARNESS, ["--topology", "sync", "--seed", "5", "--cl", str(CL), "--io", "3", "--dead-time", str(DEAD_TIME),
+                       "--ron-hs", str(RON), "--ron-ls", str(RON), "--L", str(L), "--Rc", str(RC), "--adc-delay", str(ADC)],
+             {"--out": data})
     proc = subprocess.run([str(buckid_bin), "diagnose", "--data", str(data), "--nominal", "switched", "--json", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-4000:]
@@ -58,7 +53,6 @@ def test_five_effects_at_once_are_named_and_cl_holds(buckid_bin, tmp_path):
     assert final["ci95"][0] <= CL <= final["ci95"][1], final
 
 
-@needs_ngspice
 def test_a_load_esr_beside_a_late_reading_is_freed_in_the_joint_refit(buckid_bin, tmp_path):
     """A point-of-load buck from the third generator (seed 4302: 5 V, 618 kHz, dead time,
     9 mOhm switches) whose 95.5 uF load capacitor carries a 4.35 mOhm ESR, its ADC 116 ns

@@ -11,13 +11,16 @@ had the late reading "close -1117 % of the gap" and Cl's interval spanning 3.2-6
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from captures import generate
 
 REPO = Path(__file__).resolve().parents[2]
 HARNESS = REPO / "scripts" / "spice" / "harness" / "harness.py"
@@ -42,13 +45,11 @@ def _diagnose(buckid_bin, tmp_path, name, *options):
     """`buckid diagnose`'s JSON for a harness capture with further harness `options` (its probes'
     errors; an `--adc-delay` or `--dead-time` of their own, which override the defaults here)."""
     data = tmp_path / f"{name}.csv"
-    subprocess.run([sys.executable, str(HARNESS), "--topology", "sync", "--cl", str(CL), "--io", "3",
-                    "--periods", "2000", "--adc-delay", "92e-9", "--noise-vout", "2e-3", "--noise-il", "20e-3",
-                    *options, "--out", str(data)], check=True, capture_output=True, timeout=600)
+    generate(HARNESS, ["--topology", "sync", "--cl", str(CL), "--io", "3", "--periods", "2000", "--adc-delay", "92e-9",
+                       "--noise-vout", "2e-3", "--noise-il", "20e-3", *options], {"--out": data})
     return _diagnosis(buckid_bin, data)
 
 
-@needs_ngspice
 def test_probe_errors_on_a_harness_capture_are_found_and_cl_holds(buckid_bin, tmp_path):
     plain = _diagnose(buckid_bin, tmp_path, "plain")
     dx = _diagnose(buckid_bin, tmp_path, "probed", "--vout-offset", str(VOUT_OFFSET), "--il-gain", str(IL_GAIN),
@@ -67,7 +68,6 @@ def test_probe_errors_on_a_harness_capture_are_found_and_cl_holds(buckid_bin, tm
     assert final["ci95"][0] <= CL <= final["ci95"][1], final
 
 
-@needs_ngspice
 def test_a_reading_in_the_off_time_of_a_harness_capture_is_found_and_cl_holds(buckid_bin, tmp_path):
     """The harness's ADC at 0.9 of the period, in the off-time at either duty, as a controller
     that samples clear of the edges reads. `sample_delay` alone explains it, within 1 % of the
@@ -84,7 +84,6 @@ def test_a_reading_in_the_off_time_of_a_harness_capture_is_found_and_cl_holds(bu
     assert final["ci95"][0] <= CL <= final["ci95"][1], final
 
 
-@needs_ngspice
 @pytest.mark.parametrize("fraction", [0.65, 0.85])
 def test_a_reading_in_the_off_time_behind_a_dead_time_is_found_and_cl_holds(buckid_bin, tmp_path, fraction):
     """The harness's sync buck with 30 ns of dead time, its ADC at 0.65 or 0.85 of the period.
@@ -103,7 +102,6 @@ def test_a_reading_in_the_off_time_behind_a_dead_time_is_found_and_cl_holds(buck
     assert final["ci95"][0] <= CL <= final["ci95"][1], final
 
 
-@needs_ngspice
 def test_a_reading_locked_to_the_pwm_of_a_harness_capture_is_found_and_cl_holds(buckid_bin, tmp_path):
     """The harness's sync buck with its ADC triggered in the middle of each on-time (`--adc-delay
     0 --adc-share 0.5`, the instant D*T/2): the lock is found (`sample_duty_share` 1/2, the
@@ -121,7 +119,6 @@ def test_a_reading_locked_to_the_pwm_of_a_harness_capture_is_found_and_cl_holds(
 THIRD = REPO / "scripts" / "spice" / "third" / "third.py"
 
 
-@needs_ngspice
 def test_a_reading_through_an_anti_alias_filter_is_found_and_cl_holds(buckid_bin, tmp_path):
     """The third generator's thesis stage (seed 501, Cl 51.9 uF), its vout read through an RC
     anti-alias filter with the corner at half the switching frequency (tau = T/pi, 0.96 us):
@@ -130,9 +127,9 @@ def test_a_reading_through_an_anti_alias_filter_is_found_and_cl_holds(buckid_bin
     offset, Cl 72 [69, 74] uF."""
     period = 1 / 330e3
     data = tmp_path / "filtered.csv"
-    subprocess.run([sys.executable, str(THIRD), "--family", "thesis", "--case", "clean", "--seed", "501",
-                    "--aa-tau", str(1 / 3.141592653589793), "--periods", "2000", "--out", str(data),
-                    "--truth", str(tmp_path / "truth.json")], check=True, capture_output=True, timeout=900)
+    generate(THIRD, ["--family", "thesis", "--case", "clean", "--seed", "501", "--aa-tau", str(1 / 3.141592653589793),
+                     "--periods", "2000"],
+             {"--out": data, "--truth": tmp_path / "truth.json"})
     truth = json.loads((tmp_path / "truth.json").read_text())
     dx = _diagnosis(buckid_bin, data)
     names = [e["name"] for e in dx["selected"]]
@@ -144,7 +141,6 @@ def test_a_reading_through_an_anti_alias_filter_is_found_and_cl_holds(buckid_bin
 
 
 
-@needs_ngspice
 def test_a_late_reading_through_an_anti_alias_filter_is_found_with_its_instant(buckid_bin, tmp_path):
     """The third generator's thesis stage with C's ESR 5.4 % high (seed 604, Cl 2.21 uF), its ADC
     sampling 288 ns after the switch node rises, behind an RC filter of 0.2 T (606 ns): vout lags
@@ -152,9 +148,8 @@ def test_a_late_reading_through_an_anti_alias_filter_is_found_with_its_instant(b
     within 3 %, and Cl holds. Before the filter could be read late, the two lags were taken for
     an inductor's saturation, Cl 5.6 [4.9, 7.5] uF."""
     data = tmp_path / "late_filtered.csv"
-    subprocess.run([sys.executable, str(THIRD), "--family", "thesis", "--case", "single", "--seed", "604",
-                    "--aa-tau", "0.2", "--periods", "2000", "--out", str(data),
-                    "--truth", str(tmp_path / "truth.json")], check=True, capture_output=True, timeout=900)
+    generate(THIRD, ["--family", "thesis", "--case", "single", "--seed", "604", "--aa-tau", "0.2", "--periods", "2000"],
+             {"--out": data, "--truth": tmp_path / "truth.json"})
     truth = json.loads((tmp_path / "truth.json").read_text())
     dx = _diagnosis(buckid_bin, data)
     names = [e["name"] for e in dx["selected"]]
@@ -168,7 +163,6 @@ def test_a_late_reading_through_an_anti_alias_filter_is_found_with_its_instant(b
     assert final["ci95"][0] <= truth["cl_true"] <= final["ci95"][1], (final, truth["cl_true"])
 
 
-@needs_ngspice
 def test_a_filter_read_late_replaces_the_offset_that_stood_in_for_it(buckid_bin, tmp_path):
     """The third generator's clean point-of-load board (seed 702, 665 kHz, Cl 4.22 uF), its ADC
     at a quarter of the period (357 ns after the switch node rises) behind an RC filter of 0.2 T
@@ -177,9 +171,9 @@ def test_a_filter_read_late_replaces_the_offset_that_stood_in_for_it(buckid_bin,
     holds. Before the swap, the offset stayed, with L -20 %, C -4 % and il's gain -20 % beside
     the late reading, Cl not identified."""
     data = tmp_path / "late_pol.csv"
-    subprocess.run([sys.executable, str(THIRD), "--family", "pol", "--case", "clean", "--seed", "702",
-                    "--aa-tau", "0.2", "--adc-delay", "0.25", "--periods", "2000", "--out", str(data),
-                    "--truth", str(tmp_path / "truth.json")], check=True, capture_output=True, timeout=900)
+    generate(THIRD, ["--family", "pol", "--case", "clean", "--seed", "702", "--aa-tau", "0.2", "--adc-delay", "0.25",
+                     "--periods", "2000"],
+             {"--out": data, "--truth": tmp_path / "truth.json"})
     truth = json.loads((tmp_path / "truth.json").read_text())
     dx = _diagnosis(buckid_bin, data)
     names = [e["name"] for e in dx["selected"]]
@@ -192,17 +186,30 @@ def test_a_filter_read_late_replaces_the_offset_that_stood_in_for_it(buckid_bin,
     final = dx["selected"][-1]["cl"]
     assert final["ci95"][0] <= truth["cl_true"] <= final["ci95"][1], (final, truth["cl_true"])
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def own_capture(tmp_path_factory):
     """Our own ngspice sync buck (10 mOhm MOSFETs, 30 ns dead time, Cl 10 uF, 2 A), 3001 PRBS
     periods and its scope capture: `(metadata lines, period rows, capture [time, vout, il])`."""
     import numpy as np
     spice = REPO / "scripts" / "spice" / "buck_spice.py"
-    work = tmp_path_factory.mktemp("own_capture")
+    # Live, not recorded (captures.py): the scope capture is 17 MB even compressed. Simulated
+    # once per session: pytest-xdist's workers share their session's base directory and take
+    # turns under a lock (`--dist loadgroup` would not group them under pytest 9.2,
+    # pytest-xdist#1386).
+    shared = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        shared = shared.parent
+    work = shared / "own_capture"
+    work.mkdir(exist_ok=True)
     base, capture = work / "base.csv", work / "capture.csv"
-    subprocess.run([sys.executable, str(spice), "--circuit", "sync", "--periods", "3001", "--warmup", "100", "--cl", "10e-6",
-                    "--io", "2.0", "--dead-time", "30e-9", "--out", str(base), "--capture", str(capture),
-                    "--capture-noise", "0", "0"], check=True, capture_output=True, timeout=600)
+    with open(work / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (work / "done").exists():
+            subprocess.run([sys.executable, str(spice), "--circuit", "sync", "--periods", "3001", "--warmup", "100",
+                            "--cl", "10e-6", "--io", "2.0", "--dead-time", "30e-9", "--out", str(base),
+                            "--capture", str(capture), "--capture-noise", "0", "0"],
+                           check=True, capture_output=True, timeout=600)
+            (work / "done").touch()
     lines = base.read_text().splitlines()
     meta = [line for line in lines if line.startswith("#") and not line.startswith("# Cl")]
     rows = np.loadtxt([line for line in lines if not line.startswith("#")][1:], delimiter=",")
@@ -258,7 +265,6 @@ def test_a_reading_locked_to_the_pwm_is_found_and_cl_holds(own_capture, buckid_b
     assert final["ci95"][0] <= 10e-6 <= final["ci95"][1], final
 
 
-@needs_ngspice
 def test_a_gate_drive_that_stretches_each_pulse_is_named_and_cl_holds(buckid_bin, tmp_path):
     """The harness's sync buck (level-1 MOSFETs behind their drivers, body diodes, 200 pF on the
     node) with the high side's gate held on 25 ns past d*T, a drive whose turn-off is slower

@@ -12,15 +12,9 @@ material share of what is left.
 
 from __future__ import annotations
 
-import shutil
-
-import pytest
 from conftest import third_diagnosis
 
-needs_ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
 
-
-@needs_ngspice
 def test_a_diode_buck_whose_best_first_step_is_a_dead_time_is_a_diode_buck(buckid_bin, tmp_path):
     truth, dx, _ = third_diagnosis(buckid_bin, tmp_path, "--family", "pol", "--case", "several", "--seed", "1101", "--periods", "3001")
     assert truth["topology"] == "async" and "diode_drop" in truth["effects"], truth["effects"]
@@ -36,7 +30,6 @@ def test_a_diode_buck_whose_best_first_step_is_a_dead_time_is_a_diode_buck(bucki
     assert dx["selected"][-1]["rms_after"] < 1.2 * dx["where"]["noise_floor_rms"], dx["selected"][-1]["rms_after"]
 
 
-@needs_ngspice
 def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_is_not_confidently_wrong(buckid_bin, tmp_path):
     """A Schottky point-of-load buck at 0.18 A (seed 1901: 6.24 uF on 70 uF, L 13 % above its
     nominal, a 24 Ohm / 14 nF snubber on the node) starts every period in DCM. The diode's drop
@@ -62,7 +55,6 @@ def test_a_diode_buck_in_deep_dcm_whose_charge_the_model_misses_is_not_confident
     assert "(not identified)" in next(line for line in stdout.splitlines() if line.startswith("Cl ")), stdout[-2000:]
 
 
-@needs_ngspice
 def test_a_diode_buck_in_deep_dcm_with_its_inductor_off_nominal_gets_its_inductance(buckid_bin, tmp_path):
     """A thesis-stage Schottky buck at 0.61 A (seed 5302: L 18 % below its nominal, 27 uF on
     100 uF, a 69 Ohm / 2.7 nF snubber on the node) starts every period in DCM. The diode alone
@@ -90,7 +82,6 @@ def test_a_diode_buck_in_deep_dcm_with_its_inductor_off_nominal_gets_its_inducta
         assert beyond == ("probe's tolerance" in (e.get("stand_in") or "")), e
 
 
-@needs_ngspice
 def test_a_diode_buck_is_not_named_a_gain_error_of_its_reading(buckid_bin, tmp_path):
     """A thesis-stage Schottky buck at 0.76 A (seed 5902: L 13 % above its nominal, a
     110 Ohm / 1.6 nF snubber) starts every period in DCM. Its diode's fit closes 99 % of the
@@ -106,7 +97,6 @@ def test_a_diode_buck_is_not_named_a_gain_error_of_its_reading(buckid_bin, tmp_p
     assert "diode_drop closes" in dx["selection_ended"] and "ends on a bound" in dx["selection_ended"], dx["selection_ended"]
 
 
-@needs_ngspice
 def test_two_first_steps_that_end_at_the_floor_alike_both_hold_cl(buckid_bin, tmp_path):
     """A point-of-load buck (seed 6102) whose load capacitor carries a 3.5 mOhm ESR, its ADC
     reading 100 ns late. An inductance 5.9 % high closes 79.2 % of the gap, the ESR 78.0 %: the
