@@ -359,7 +359,7 @@ impl Converter {
         self.sat_region = 0;
         self.cl_now = self.params.cl_at(s.vo);
         self.vcl_last_start = None;
-        self.digital.settle_filter(self.vout());
+        self.digital.settle_filters(self.vout(), self.x[0]);
         self.last_average = self.x;
         self.last_io_average = self.io_held;
     }
@@ -400,6 +400,12 @@ impl Converter {
     /// (`adc_filter`), where there is one (unquantized and without noise).
     pub fn vout_read(&self) -> f64 {
         self.digital.vout_channel(self.vout())
+    }
+
+    /// `il` as the ADC's `il` channel sees it now: through its filter (`adc_il_filter`), where
+    /// there is one (unquantized).
+    pub fn il_read(&self) -> f64 {
+        self.digital.il_channel(self.x[0])
     }
 
     /// `∫ vout dt` since the current period started [V·s] (exact, as `vout_avg` is over a whole
@@ -467,6 +473,7 @@ impl Converter {
             VarId::AdcNoise => d.adc_noise,
             VarId::AdcDelay => d.adc_delay,
             VarId::AdcFilter => d.adc_filter,
+            VarId::AdcIlFilter => d.adc_il_filter,
             VarId::NoiseSeed => d.noise_seed as f64,
             VarId::DpwmBits => f64::from(d.dpwm_bits),
             VarId::SwitchResistance => p.switch_resistance,
@@ -537,6 +544,7 @@ impl Converter {
                     VarId::AdcNoise => d.adc_noise = value,
                     VarId::AdcDelay => d.adc_delay = value,
                     VarId::AdcFilter => d.adc_filter = value,
+                    VarId::AdcIlFilter => d.adc_il_filter = value,
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
                 }
                 if var.causality == variables::Causality::Parameter {
@@ -653,8 +661,9 @@ impl Converter {
         Ok(())
     }
 
-    /// [`Self::advance`] by `span`, the ADC's anti-alias filter following `vout` (`adc_filter`,
-    /// see [`Digital::follow`]) in pieces of at most a [`FILTER_PIECES`]th of the `period`.
+    /// [`Self::advance`] by `span`, the ADC's channel filters following `vout` and `il`
+    /// (`adc_filter`, `adc_il_filter`, see [`Digital::follow`]) in pieces of at most a
+    /// [`FILTER_PIECES`]th of the `period`.
     fn advance_read(&mut self, span: f64, gate: Gate, period: f64) {
         if !self.digital.filters() || span <= 0.0 {
             return self.advance(span, gate);
@@ -663,9 +672,11 @@ impl Converter {
         let dt = span / n;
         for _ in 0..n as usize {
             // (At the load current the piece draws, which may have been set since the last.)
-            let (v0, integral0) = (self.through_vout_map(&self.x, self.inputs.io), self.vout_integral());
+            let start = [self.through_vout_map(&self.x, self.inputs.io), self.x[0]];
+            let integral0 = [self.vout_integral(), self.z[0]];
             self.advance(dt, gate);
-            self.digital.follow(v0, self.vout(), (self.vout_integral() - integral0) / dt, dt);
+            let mean = [(self.vout_integral() - integral0[0]) / dt, (self.z[0] - integral0[1]) / dt];
+            self.digital.follow(start, [self.vout(), self.x[0]], mean, dt);
         }
     }
 

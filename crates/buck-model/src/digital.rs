@@ -6,7 +6,8 @@
 //! first step that runs period `k`) the duty command is formed — the `duty` input in open loop,
 //! `PID(vref − vout_adc) + duty_dither` in closed loop — quantized to the DPWM resolution, and
 //! pushed into the delay line; the command from `delay` periods earlier drives the switch.
-//! The `vout` channel may read through a first-order RC anti-alias filter (`adc_filter`).
+//! Each channel may read through a first-order RC low-pass: `vout` through the ADC's anti-alias
+//! filter (`adc_filter`), `il` through its sense chain's (`adc_il_filter`).
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
@@ -49,6 +50,9 @@ pub struct Digital {
     pub adc_delay: f64,
     /// Time constant of the RC anti-alias filter in front of the `vout` channel [s] (0: none).
     pub adc_filter: f64,
+    /// Time constant of the first-order low-pass in front of the `il` channel [s] (0: none): a
+    /// current-sense amplifier's bandwidth or the channel's own anti-alias filter.
+    pub adc_il_filter: f64,
     /// DPWM resolution in bits (0: ideal).
     pub dpwm_bits: u32,
     integral: f64,
@@ -56,8 +60,8 @@ pub struct Digital {
     line: VecDeque<f64>,
     reading: [f64; 2],
     applied: f64,
-    /// The `vout` channel's filter output (`adc_filter`).
-    filtered: f64,
+    /// The channels' filter outputs `[vout, il]` (`adc_filter`, `adc_il_filter`).
+    filtered: [f64; 2],
 }
 
 impl Default for Digital {
@@ -75,13 +79,14 @@ impl Default for Digital {
             noise_seed: 1,
             adc_delay: 0.0,
             adc_filter: 0.0,
+            adc_il_filter: 0.0,
             dpwm_bits: 0,
             integral: 0.0,
             e_prev: 0.0,
             line: VecDeque::new(),
             reading: [0.0; 2],
             applied: 0.0,
-            filtered: 0.0,
+            filtered: [0.0; 2],
         }
     }
 }
@@ -138,37 +143,50 @@ impl Digital {
         self.e_prev = 0.0;
         self.line = std::iter::repeat_n(duty, self.delay as usize).collect();
         self.applied = duty;
-        self.settle_filter(vout);
+        self.settle_filters(vout, il);
         self.sample(vout, il, 0);
     }
 
-    /// Whether the `vout` channel reads through its anti-alias filter (`adc_filter`).
-    pub fn filters(&self) -> bool {
-        self.adc_filter > 0.0
+    /// The channels' filter time constants `[vout, il]` (0: none).
+    fn taus(&self) -> [f64; 2] {
+        [self.adc_filter, self.adc_il_filter]
     }
 
-    /// The `vout` channel's filter following a piece of `vout` of length `dt` from `v0` to `v1`
-    /// with mean `mean` (see `low_pass`); nothing without a filter.
-    pub fn follow(&mut self, v0: f64, v1: f64, mean: f64, dt: f64) {
-        if self.filters() {
-            self.filtered = low_pass(self.filtered, self.adc_filter, v0, v1, mean, dt);
+    /// Whether a channel reads through a filter (`adc_filter`, `adc_il_filter`).
+    pub fn filters(&self) -> bool {
+        self.taus().iter().any(|&tau| tau > 0.0)
+    }
+
+    /// The channels' filters following a piece of length `dt` over which `vout` and `il` each
+    /// went from `start` to `end` with mean `mean` (`[vout, il]`, see `low_pass`); a channel
+    /// without a filter ignores it.
+    pub fn follow(&mut self, start: [f64; 2], end: [f64; 2], mean: [f64; 2], dt: f64) {
+        for (c, tau) in self.taus().into_iter().enumerate() {
+            if tau > 0.0 {
+                self.filtered[c] = low_pass(self.filtered[c], tau, start[c], end[c], mean[c], dt);
+            }
         }
     }
 
-    /// The `vout` channel's filter settled at `vout` (a start at a state).
-    pub fn settle_filter(&mut self, vout: f64) {
-        self.filtered = vout;
+    /// The channels' filters settled at `vout` and `il` (a start at a state).
+    pub fn settle_filters(&mut self, vout: f64, il: f64) {
+        self.filtered = [vout, il];
     }
 
     /// What the `vout` channel sees of `vout` now: its filter's output, where there is one.
     pub fn vout_channel(&self, vout: f64) -> f64 {
-        if self.filters() { self.filtered } else { vout }
+        if self.adc_filter > 0.0 { self.filtered[0] } else { vout }
     }
 
-    /// The ADC conversion of period `k` (its noise a function of `k`) of `vout` (through the
-    /// filter, where there is one: its output) and `il`.
+    /// What the `il` channel sees of `il` now: its filter's output, where there is one.
+    pub fn il_channel(&self, il: f64) -> f64 {
+        if self.adc_il_filter > 0.0 { self.filtered[1] } else { il }
+    }
+
+    /// The ADC conversion of period `k` (its noise a function of `k`) of `vout` and `il`, each
+    /// through its channel's filter where there is one.
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
-        let vout = self.vout_channel(vout);
+        let (vout, il) = (self.vout_channel(vout), self.il_channel(il));
         let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
         self.reading = [quantize(noisy, 0.0, self.adc_vfs, self.adc_bits), quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits)];
     }
