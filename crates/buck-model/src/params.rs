@@ -130,6 +130,12 @@ pub struct Params {
     /// effect); the FMU's ADC reads through its `adc_filter`
     /// ([`crate::digital::Digital::adc_filter`]), the same filter.
     pub vout_filter: f64,
+    /// Time constant of a first-order low-pass the `il` reading passes through before it is
+    /// sampled [s]: a current-sense amplifier's bandwidth, or an anti-alias filter in front of
+    /// the ADC's `il` channel. 0 (the default): read directly. Not a circuit value: the
+    /// estimator's plant simulator reads `il` through it; the FMU's ADC reads through its
+    /// `adc_il_filter` ([`crate::digital::Digital::adc_il_filter`]), the same filter.
+    pub il_filter: f64,
     /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
     /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like
     /// `sample_delay`.
@@ -223,6 +229,7 @@ impl Default for Params {
             sample_delay: 0.0,
             sample_duty_share: 0.0,
             vout_filter: 0.0,
+            il_filter: 0.0,
             vout_offset: 0.0,
             vout_gain_error: 0.0,
             il_offset: 0.0,

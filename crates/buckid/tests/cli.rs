@@ -707,6 +707,23 @@ fn an_anti_alias_filter_in_our_fmu_is_named_with_its_time_constant() {
     assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
 }
 
+/// Our FMU with 30 ns of dead time and a low-pass in front of each of its ADC's channels
+/// (`adc_filter` at half the switching frequency on vout, `adc_il_filter` at two thirds of it
+/// on il): `diagnose` names the dead time, then the filter on both channels, each time constant
+/// within 3 %, and Cl's interval holds the FMU's (4.689 [4.403, 4.992] µF). In the first step the plain filter closes vout's gap alone and il's
+/// is left: the filter on both channels is a forward step's, behind a circuit effect.
+#[test]
+fn filters_on_both_channels_of_our_fmus_adc_are_named_with_their_time_constants() {
+    let (tau, il_tau) = (1.0 / (std::f64::consts::PI * 330e3), 0.75 / (std::f64::consts::PI * 330e3));
+    let dx = diagnose_our_fmus_adc(&["dead_time=30e-9", &format!("adc_filter={tau:e}"), &format!("adc_il_filter={il_tau:e}")], false);
+    assert_eq!(selected_names(&dx), ["dead_time", "sensor_filter"], "{}", dx["selection_ended"]);
+    for (name, want) in [("vout_filter", tau), ("il_filter", il_tau)] {
+        let found = selected_param(&dx, name).as_f64().unwrap();
+        assert!((found / want - 1.0).abs() < 0.03, "{name} {found:e} s for the ADC's {want:e} s");
+    }
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.15);
+}
+
 /// A clean point-of-load capture from the third ngspice generator (5 V, 1.2 µH, 57 µF with
 /// 7.3 mΩ, 538 kHz, 5.3 A, 73 µF of load, vout alone), told nothing, is clean. The nominal fit
 /// ranks Cl's grid on the first samples and starts from the best point alone; here it ended at

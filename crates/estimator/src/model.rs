@@ -152,6 +152,9 @@ pub enum Free {
     /// `vout_filter`: the `vout` reading through a first-order low-pass of this time constant
     /// ([`Structure::Simulated`] only).
     VoutFilter,
+    /// `il_filter`: the `il` reading through a first-order low-pass of this time constant
+    /// ([`Structure::Simulated`] only).
+    IlFilter,
     /// `vout_offset`: the `vout` reading's zero error, signed ([`Structure::Simulated`] only).
     VoutOffset,
     /// `vout_gain_error`: the `vout` reading's relative gain error, signed
@@ -183,9 +186,17 @@ impl Free {
             Free::CapDcBias => "cap_dc_bias",
             Free::SampleDelay => "sample_delay",
             Free::VoutFilter => "vout_filter",
+            Free::IlFilter => "il_filter",
             Free::VoutOffset => "vout_offset",
             Free::VoutGainError => "vout_gain_error",
         }
+    }
+
+    /// Whether the inductor current's reading pins it where the data has `il` (the simulated
+    /// fit's both channels, then held): the sampling instant, and the `il` reading's filter,
+    /// which `vout` does not show.
+    pub fn pinned_by_il(self) -> bool {
+        matches!(self, Free::SampleDelay | Free::IlFilter)
     }
 
     /// Whether the value `v` lies inside the parameter's range in the variable table (a
@@ -300,6 +311,7 @@ impl Free {
             Free::CapDcBias => p.cap_dc_bias,
             Free::SampleDelay => p.sample_delay,
             Free::VoutFilter => p.vout_filter,
+            Free::IlFilter => p.il_filter,
             Free::VoutOffset => p.vout_offset,
             Free::VoutGainError => p.vout_gain_error,
         }
@@ -328,6 +340,7 @@ impl Free {
             Free::CapDcBias => p.cap_dc_bias = value,
             Free::SampleDelay => p.sample_delay = value,
             Free::VoutFilter => p.vout_filter = value,
+            Free::IlFilter => p.il_filter = value,
             Free::VoutOffset => p.vout_offset = value,
             Free::VoutGainError => p.vout_gain_error = value,
         }
@@ -498,7 +511,7 @@ impl Model {
         if free.is_empty() {
             return Err(EstimatorError::Config("at least one free parameter is needed".into()));
         }
-        if let Some(f) = free.iter().find(|f| matches!(f, Free::SampleDelay | Free::VoutFilter)) {
+        if let Some(f) = free.iter().find(|f| matches!(f, Free::SampleDelay | Free::VoutFilter | Free::IlFilter)) {
             return Err(EstimatorError::Config(format!("the free parameter `{}` is modelled by the simulated structure only, not by `{}`", f.name(), structure.name())));
         }
         if structure != Structure::Exact

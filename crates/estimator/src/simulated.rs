@@ -148,7 +148,8 @@ pub fn simulate(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<V
     simulate_outputs(p, data, start).map(|(vout, _)| vout)
 }
 
-/// [`simulate`], with the inductor current at the same instants.
+/// [`simulate`], with the inductor current at the same instants as its reading shows it (through
+/// the low-pass `p.il_filter`, if any, [`Converter::il_read`]; its gain and zero errors).
 pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
     // What the readings make of the voltage and the current (their gain and zero errors).
     let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
@@ -157,7 +158,7 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> 
     let mut il = Vec::with_capacity(data.len());
     drive(p, data, start, |conv, _, vout| {
         out.push(read(vout));
-        il.push(read_il(conv.state().il));
+        il.push(read_il(conv.il_read()));
     })?;
     if out.iter().chain(&il).all(|v| v.is_finite()) { Ok((out, il)) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
 }
@@ -227,8 +228,9 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
         }
         Ok(())
     };
-    // `vout` read through the anti-alias filter, if any: the FMU's ADC's own.
+    // `vout` and `il` read through their filters, if any: the FMU's ADC's own.
     conv.set(VarId::AdcFilter, p.vout_filter).map_err(plant)?;
+    conv.set(VarId::AdcIlFilter, p.il_filter).map_err(plant)?;
     set_inputs(&mut conv, 0)?;
     conv.initialize();
     // The DC point's current, moved by what a load resistor draws at v0 instead of there.
@@ -434,11 +436,12 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     }
     // The sampling instant, where free and the data has il: pinned on both channels first,
     // then held (see the module doc).
-    let pinned = free.iter().position(|f| *f == Free::SampleDelay).filter(|_| free.len() > 1).zip(il_weight(&estimation));
+    let pinned_at: Vec<usize> = (0..free.len()).filter(|&k| free[k].pinned_by_il()).collect();
+    let pinned = Some(pinned_at).filter(|at| !at.is_empty() && free.len() > at.len()).zip(il_weight(&estimation));
     // The best start by the criterion of the first fit it goes into: both channels where the
     // instant is pinned (vout alone can prefer a start whose instant il rules out, from which a
     // fit on the log scale slides toward zero and stays).
-    let weight = pinned.filter(|_| criterion == Criterion::OutputError).map(|(_, w)| w);
+    let weight = pinned.as_ref().filter(|_| criterion == Criterion::OutputError).map(|(_, w)| *w);
     let cost_at = |(s, u): &(&Params, Vec<f64>)| residuals(s, free, u, &estimation, criterion, weight).map_or(f64::INFINITY, |r| r.norm_squared());
     if tries.len() > 1 {
         let mut ranked: Vec<(f64, (&Params, Vec<f64>))> = tries.into_par_iter().map(|t| (cost_at(&t), t)).collect();
@@ -447,11 +450,11 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     }
     let (start, logs) = tries.first().cloned().unwrap_or((start, Vec::new()));
     let (start, free_rest, logs, delay) = match pinned {
-        Some((i, weight)) => {
+        Some((at, weight)) => {
             // The high-pass refit tests the rest of a model whose instant the output-error fit
             // has pinned: it keeps that instant (held exactly, so without a variance of its own).
-            let (held, logs, var, iterations) = if criterion == Criterion::Differenced {
-                (with_logs(start, free, &logs), logs, 0.0, 0)
+            let (held, logs, var, iterations): (_, _, Vec<f64>, _) = if criterion == Criterion::Differenced {
+                (with_logs(start, free, &logs), logs, vec![0.0; at.len()], 0)
             } else {
                 // Pinned by what the instant changes, not by the readings' calibration: vout's
                 // zero error and il's zero and gain errors are projected out (see `residuals`).
@@ -482,30 +485,33 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
                 let (_, il) = simulate_outputs(&without_offsets(held), &estimation, Start::of(&logs))?;
                 let measured = estimation.il.as_deref().unwrap_or_default();
                 (held.il_offset, held.il_gain_error) = reading_calibration(&measured[BURN_IN.min(measured.len())..], &il[BURN_IN..]);
-                let at = joint_at.iter().position(|&k| k == i).unwrap_or_default();
-                (held, logs, cov[(at, at)], joint.iterations)
+                let var = at.iter().map(|i| joint_at.iter().position(|k| k == i).map_or(0.0, |j| cov[(j, j)])).collect();
+                (held, logs, var, joint.iterations)
             };
-            let rest: Vec<Free> = free.iter().copied().filter(|f| *f != Free::SampleDelay).collect();
-            let rest_logs: Vec<f64> = logs.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, l)| *l).collect();
-            (held, rest, rest_logs, Some((i, logs[i], var, iterations)))
+            let rest: Vec<Free> = free.iter().copied().filter(|f| !f.pinned_by_il()).collect();
+            let rest_logs: Vec<f64> = logs.iter().enumerate().filter(|(k, _)| !at.contains(k)).map(|(_, l)| *l).collect();
+            let held_logs: Vec<f64> = at.iter().map(|&i| logs[i]).collect();
+            (held, rest, rest_logs, Some((at, held_logs, var, iterations)))
         }
         None => (*start, free.to_vec(), logs, None),
     };
     let m = minimize(&start, &free_rest, logs, &estimation, criterion, None)?;
     let (s2, rest_covariance) = noise_and_covariance(&m, criterion)?;
-    // The estimates and covariance in the order of `free` (then the start); the held delay with its
-    // variance from the joint fit, uncorrelated with the rest.
-    let (covariance, logs) = match delay {
-        Some((i, log_delay, var, _)) => {
-            let mut covariance = rest_covariance.insert_column(i, 0.0).insert_row(i, 0.0);
-            covariance[(i, i)] = var;
-            let mut logs = m.logs.clone();
-            logs.insert(i, log_delay);
+    // The estimates and covariance in the order of `free` (then the start); the held values with
+    // their variances from the joint fit, uncorrelated with the rest.
+    let (covariance, logs) = match &delay {
+        Some((at, held_logs, var, _)) => {
+            let (mut covariance, mut logs) = (rest_covariance, m.logs.clone());
+            for (k, &i) in at.iter().enumerate() {
+                covariance = covariance.insert_column(i, 0.0).insert_row(i, 0.0);
+                covariance[(i, i)] = var[k];
+                logs.insert(i, held_logs[k]);
+            }
             (covariance, logs)
         }
         None => (rest_covariance, m.logs.clone()),
     };
-    let (cost, iterations, converged, np) = (m.cost, m.iterations + delay.map_or(0, |d| d.3), m.converged, logs.len());
+    let (cost, iterations, converged, np) = (m.cost, m.iterations + delay.as_ref().map_or(0, |d| d.3), m.converged, logs.len());
     let start = &start;
     let seconds = clock.elapsed().as_secs_f64();
     let params = with_logs(start, free, &logs);
@@ -696,7 +702,7 @@ pub fn cl_leverage(data: &DataSet, p: &Params, free: &[Free], n_est: usize, held
     let not_simulable = || EstimatorError::Fit("the simulation fails at the fitted values".into());
     let estimation = data.slice(0..n_est.min(data.len()));
     let pinned = free.len() > 1 && il_weight(&estimation).is_some();
-    let moving: Vec<Free> = free.iter().copied().filter(|f| !(pinned && *f == Free::SampleDelay)).collect();
+    let moving: Vec<Free> = free.iter().copied().filter(|f| !(pinned && f.pinned_by_il())).collect();
     let ci = moving.iter().position(|f| *f == Free::Cl).ok_or_else(|| EstimatorError::Config("Cl is not free".into()))?;
     let logs: Vec<f64> = moving.iter().map(|f| f.to_unknown(f.get(p))).chain(Start::from(data.vout[0]).unknowns()).collect();
     let r0 = residuals(p, &moving, &logs, &estimation, Criterion::OutputError, None).ok_or_else(not_simulable)?;

@@ -486,10 +486,14 @@ pub struct EffectFit {
 
 impl EffectFit {
     /// Its name, with the value it frees where the name alone does not say (`param_drift (Rc)`),
-    /// or the form it takes (`sensor_filter (read late)`: with its own instant).
+    /// or the form it takes (`sensor_filter (read late)`: with its own instant; `sensor_filter
+    /// (vout and il)`: a filter on each channel).
     pub fn label(&self) -> String {
         if self.name == "sensor_filter" && self.params.contains_key("sample_delay") {
             return format!("{} (read late)", self.name);
+        }
+        if self.name == "sensor_filter" && self.params.contains_key(Free::IlFilter.name()) {
+            return format!("{} (vout and il)", self.name);
         }
         effect_label(self.name, self.params.keys().find_map(|k| k.strip_suffix("_nominal")))
     }
@@ -605,7 +609,7 @@ fn late_reading_in_il(data: &DataSet, nominal: &Params, late: &Params, n_est: us
     let calibrated = Params { il_offset: late.il_offset, il_gain_error: late.il_gain_error, ..*nominal };
     let (before, floor, floor_samples) = [il_residual(data, nominal, n_est), il_residual(data, &calibrated, n_est)].into_iter().flatten().min_by(|a, b| a.0.total_cmp(&b.0))?;
     let (after, ..) = il_residual(data, late, n_est)?;
-    let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
+    let closed = share_closed(before, after, floor);
     // Beyond IL_LEFT_FLOORS the share is not reported: the late reading explains nothing.
     (gap_material(before, data.len() - n_est, floor, floor_samples) && after <= IL_LEFT_FLOORS * floor).then_some(closed)
 }
@@ -624,20 +628,59 @@ const INSTANT_GRID: usize = 16;
 pub(crate) fn il_closed_by_an_instant(data: &DataSet, p: &Params, n_est: usize) -> Option<f64> {
     let (before, floor, floor_samples) = il_residual(data, p, n_est)?;
     let il = data.il.as_ref()?;
-    let missed = |at: f64| -> f64 {
-        let q = Params { sample_delay: at, il_offset: 0.0, il_gain_error: 0.0, sample_duty_share: 0.0, ..*p };
-        let Ok((_, sim)) = estimator::simulated::simulate_outputs(&q, data, data.vout[0]) else { return f64::INFINITY };
-        let (offset, gain_error) = estimator::simulated::reading_calibration(il, &sim);
-        held_out_rms(il, &sim, n_est, |s| (1.0 + gain_error) * s + offset)
-    };
+    let missed = |at: f64| il_missed_calibrated(data, il, &Params { sample_delay: at, sample_duty_share: 0.0, ..*p }, n_est);
     let before = before.min(missed(p.sample_delay));
     let step = p.period() / INSTANT_GRID as f64;
     let grid = (0..).map(|k| k as f64 * step).take_while(|&at| at < MAX_SAMPLE_DELAY * p.period());
     let (best, _) = grid.map(|at| (at, missed(at))).min_by(|a, b| a.1.total_cmp(&b.1))?;
     let (lo, hi) = ((best - step).max(0.0), (best + step).min(MAX_SAMPLE_DELAY * p.period() * (1.0 - 1e-9)));
     let after = golden_min(missed, lo, hi, 10);
-    let closed = 100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2));
-    gap_material(before, data.len() - n_est, floor, floor_samples).then_some(closed)
+    gap_material(before, data.len() - n_est, floor, floor_samples).then_some(share_closed(before, after, floor))
+}
+
+/// The held-out miss of the measured `il` by its reading on the circuit `q`, the probe's zero
+/// and gain errors fitted by least squares (`q`'s own left out); infinite where `q` does not
+/// simulate.
+fn il_missed_calibrated(data: &DataSet, il: &[f64], q: &Params, n_est: usize) -> f64 {
+    let q = Params { il_offset: 0.0, il_gain_error: 0.0, ..*q };
+    let Ok((_, sim)) = estimator::simulated::simulate_outputs(&q, data, data.vout[0]) else { return f64::INFINITY };
+    let (offset, gain_error) = estimator::simulated::reading_calibration(il, &sim);
+    held_out_rms(il, &sim, n_est, |s| (1.0 + gain_error) * s + offset)
+}
+
+/// The share [%] of a gap above the noise `floor` closed from the residual `before` to `after`.
+fn share_closed(before: f64, after: f64, floor: f64) -> f64 {
+    100.0 * (before.powi(2) - after.powi(2)) / (before.powi(2) - floor.powi(2))
+}
+
+/// Time constants, in periods, a filter in front of the `il` reading is scanned at by
+/// [`il_closed_by_a_filter`] (a decade and a half either side of the corner at half the
+/// switching frequency, τ = T/π).
+const IL_FILTER_GRID: [f64; 5] = [1.0 / 30.0, 0.1, 1.0 / 3.0, 1.0, 2.0];
+
+/// Share of the inductor current's material gap above its floor [%] that the best filter in
+/// front of its reading alone closes on the model `p`, il's probe calibrated by least squares
+/// at each ([`il_closed_by_an_instant`]'s screen for a lag that grows with frequency): time
+/// constants on [`IL_FILTER_GRID`], then refined by golden section on their logarithm about the
+/// best. `None` without `il`, a floor for it, or a material gap of it.
+pub(crate) fn il_closed_by_a_filter(data: &DataSet, p: &Params, n_est: usize) -> Option<f64> {
+    let (before, floor, floor_samples) = il_residual(data, p, n_est)?;
+    let il = data.il.as_ref()?;
+    let missed = |ln_tau: f64| il_missed_calibrated(data, il, &Params { il_filter: ln_tau.exp(), ..*p }, n_est);
+    let grid = IL_FILTER_GRID.map(|share| (share * p.period()).ln());
+    let (k, _) = grid.iter().map(|&l| missed(l)).enumerate().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (lo, hi) = (grid[k.saturating_sub(1)], grid[(k + 1).min(grid.len() - 1)]);
+    let after = golden_min(missed, lo, hi, 6);
+    gap_material(before, data.len() - n_est, floor, floor_samples).then_some(share_closed(before, after, floor))
+}
+
+/// Whether the inductor current on the model `p` shows a filter in front of its reading: a
+/// filter alone explains il ([`il_closed_by_a_filter`], [`explains_il`]), and closes more of it
+/// than the best instant does ([`il_closed_by_an_instant`]: a reading taken late shifts il along
+/// its ripple, which a lag imitates in part).
+pub(crate) fn il_shows_a_filter(data: &DataSet, p: &Params, n_est: usize) -> bool {
+    let filtered = il_closed_by_a_filter(data, p, n_est);
+    explains_il(filtered) && filtered > il_closed_by_an_instant(data, p, n_est)
 }
 
 /// Least value of `f` on `[lo, hi]` by `iterations` golden-section steps (for a function with
@@ -1232,10 +1275,16 @@ pub(crate) const SIMULATED_EFFECTS: [SimulatedEffect; 12] = [
 pub(crate) const SENSOR_FILTER_LATE: SimulatedEffect =
     SimulatedEffect { name: "sensor_filter", extra: &[(Free::VoutFilter, 0.1), (Free::SampleDelay, 1.0 / 60.0)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false };
 
+/// `sensor_filter` on both channels: `il` too read through a low-pass (its own time constant),
+/// as behind a controller's anti-alias filter on each ADC input or a current-sense amplifier's
+/// bandwidth. Tried where the model misses il materially.
+pub(crate) const SENSOR_FILTER_BOTH: SimulatedEffect =
+    SimulatedEffect { name: "sensor_filter", extra: &[(Free::VoutFilter, 0.1), (Free::IlFilter, 0.1)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false };
+
 /// The simulator form of the effect `name` that frees what `frees` holds: the filter read late
 /// where its instant is among them, else the effect's one form.
 pub(crate) fn simulated_form(name: &str, frees: impl Fn(Free) -> bool) -> Option<&'static SimulatedEffect> {
-    let forms: [&'static SimulatedEffect; 1] = [&SENSOR_FILTER_LATE];
+    let forms: [&'static SimulatedEffect; 2] = [&SENSOR_FILTER_LATE, &SENSOR_FILTER_BOTH];
     SIMULATED_EFFECTS.iter().chain(forms).filter(|s| s.name == name && s.extra.iter().all(|&(f, _)| frees(f))).max_by_key(|s| s.extra.len())
 }
 
@@ -1245,7 +1294,7 @@ pub(crate) fn simulated_form(name: &str, frees: impl Fn(Free) -> bool) -> Option
 /// what they are at any scale).
 fn start_unit(f: Free, p: &Params) -> f64 {
     match f {
-        Free::DeadTime | Free::PulseWidthDistortion | Free::SampleDelay | Free::VoutFilter => p.period(),
+        Free::DeadTime | Free::PulseWidthDistortion | Free::SampleDelay | Free::VoutFilter | Free::IlFilter => p.period(),
         Free::LoadEsr => p.rc,
         _ => 1.0,
     }
@@ -1565,7 +1614,7 @@ pub(crate) fn judge(name: &'static str, t: Trial, against: &Candidate, n_est: us
     let at_bound = t.params.iter().any(|(k, v)| t.ci95.contains_key(k) && on_bound(k, *v))
         || t.drift.is_some_and(|d| d.abs() > MAX_DRIFT)
         || (t.params.contains_key(Free::SampleDelay.name()) && instant_on_bound(&t.cand.fit.params, baseline.duty_range))
-        || t.params.get(Free::VoutFilter.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND))
+        || [Free::VoutFilter, Free::IlFilter].iter().any(|f| t.params.get(f.name()).is_some_and(|&tau| tau >= MAX_FILTER * t.cand.fit.params.period() * (1.0 - AT_BOUND)))
         || t.params.get(Free::VoutGainError.name()).is_some_and(|g| g.abs() > MAX_GAIN_ERROR)
         || t.params.get(Free::PulseWidthDistortion.name()).is_some_and(|&d| d > MAX_PULSE_WIDTH_SHARE * t.cand.fit.params.period());
     let fit = EffectFit {

@@ -26,9 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial,
-    calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, judge, reads_vout, record_bias_law, residual, rms,
-    simulated_form, variance,
+    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect,
+    Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, il_shows_a_filter, judge, reads_vout,
+    record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -466,7 +466,7 @@ impl Extension {
         let data = self.stack.data(data);
         match self.name {
             "sample_delay" => fit.judge_in_il(&data, against, late, n_est, tolerance),
-            "sensor_filter" if self.added().contains(&Free::SampleDelay) => fit.judge_late_filter_in_il(&data, against, late, n_est),
+            "sensor_filter" if self.added().contains(&Free::SampleDelay) || self.added().contains(&Free::IlFilter) => fit.judge_late_filter_in_il(&data, against, late, n_est),
             _ => {}
         }
     }
@@ -1090,7 +1090,10 @@ pub(crate) fn forward(
             if il_missed && !diode && !stack.free.contains(&Free::SampleDelay) && extensions.iter().any(|x| x.name == "sensor_filter") {
                 extensions.push(stack.extension_of(&SENSOR_FILTER_LATE, io_mean));
             }
-            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.added().contains(&Free::SampleDelay) && il_missed);
+            if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && extensions.iter().any(|x| x.name == "sensor_filter") {
+                extensions.push(stack.extension_of(&SENSOR_FILTER_BOTH, io_mean));
+            }
+            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| (x.added().contains(&Free::SampleDelay) || x.added().contains(&Free::IlFilter)) && il_missed);
             if late_pending {
                 rest.clear();
             }
@@ -1101,8 +1104,12 @@ pub(crate) fn forward(
             // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
             // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
             let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
+            let (both, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.added().contains(&Free::IlFilter));
             let late_trials = || {
                 let mut t: Vec<_> = delays.iter().filter_map(try_one).collect();
+                if !both.is_empty() && !t.iter().any(|t| t.0.finding) && il_shows_a_filter(&stack.data(data), &stack.params, n_est) {
+                    t.extend(both.iter().filter_map(try_one));
+                }
                 if !filters.is_empty()
                     && !t.iter().any(|t| t.0.finding)
                     && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_closed_by_an_instant(&stack.data(data), &stack.params, n_est)))
