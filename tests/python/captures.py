@@ -23,6 +23,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -58,6 +59,8 @@ def generate(generator: Path, args: list[str], outputs: dict[str, Path], timeout
         return
     if shutil.which("ngspice") is None:
         pytest.skip(f"ngspice is not installed and this run of {generator.name} is not recorded")
+    if not RECORD:
+        warnings.warn(f"{generator.name} {' '.join(args)}: not recorded, simulated live (see captures.py)", stacklevel=2)
     command = [sys.executable, str(generator), *args]
     for option, path in outputs.items():
         command += [option, str(path)]

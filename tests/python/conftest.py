@@ -64,12 +64,14 @@ def fmu_path() -> Path:
     return path
 
 
-def cargo_executable(package: str, target: str, *extra: str) -> Path:
-    """`cargo build --release` of one executable (a no-op when up to date), so a stale binary
-    from an older checkout is never tested; its path comes from cargo's JSON messages, so a
+def cargo_executable(package: str, target: str, *extra: str, release: bool = True) -> Path:
+    """`cargo build` of one executable (a no-op when up to date), so a stale binary from an
+    older checkout is never tested; `--release`, or the profile `cargo test` builds binaries in
+    (its numerical crates optimised as fully). Its path comes from cargo's JSON messages, so a
     custom `CARGO_TARGET_DIR` works too."""
+    profile = ["--release"] if release else []
     proc = subprocess.run(
-        [_cargo(), "build", "--release", "-p", package, *extra, "--message-format=json"],
+        [_cargo(), "build", *profile, "-p", package, *extra, "--message-format=json"],
         cwd=REPO, capture_output=True, text=True, check=False,
     )
     if proc.returncode != 0:
@@ -93,8 +95,9 @@ def trajectory_bin() -> Path:
 
 @pytest.fixture(scope="session")
 def buckid_bin() -> Path:
-    """The `buckid` command line."""
-    return cargo_executable("buckid", "buckid", "--bin", "buckid")
+    """The `buckid` command line, as `cargo test` built it for the CLI's tests (`scripts/test`
+    runs those first): a release build of it cost the clean clone's CI 3 minutes."""
+    return cargo_executable("buckid", "buckid", "--bin", "buckid", release=False)
 
 
 def third_diagnosis(buckid_bin: Path, tmp_path: Path, *third_args: str):
