@@ -434,8 +434,9 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
             })
             .collect();
     }
-    // The sampling instant, where free and the data has il: pinned on both channels first,
-    // then held (see the module doc).
+    // What il pins (the sampling instant, il's filter: `Free::pinned_by_il`), where free beside
+    // other values and the data has il: pinned on both channels first, then held (see the
+    // module doc).
     let pinned_at: Vec<usize> = (0..free.len()).filter(|&k| free[k].pinned_by_il()).collect();
     let pinned = Some(pinned_at).filter(|at| !at.is_empty() && free.len() > at.len()).zip(il_weight(&estimation));
     // The best start by the criterion of the first fit it goes into: both channels where the

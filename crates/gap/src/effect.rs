@@ -676,11 +676,11 @@ pub(crate) fn il_closed_by_a_filter(data: &DataSet, p: &Params, n_est: usize) ->
 
 /// Whether the inductor current on the model `p` shows a filter in front of its reading: a
 /// filter alone explains il ([`il_closed_by_a_filter`], [`explains_il`]), and closes more of it
-/// than the best instant does ([`il_closed_by_an_instant`]: a reading taken late shifts il along
-/// its ripple, which a lag imitates in part).
-pub(crate) fn il_shows_a_filter(data: &DataSet, p: &Params, n_est: usize) -> bool {
+/// than the best instant does (`instant`: [`il_closed_by_an_instant`] on the same model, asked
+/// for only then; a reading taken late shifts il along its ripple, which a lag imitates in part).
+pub(crate) fn il_shows_a_filter(data: &DataSet, p: &Params, n_est: usize, instant: impl FnOnce() -> Option<f64>) -> bool {
     let filtered = il_closed_by_a_filter(data, p, n_est);
-    explains_il(filtered) && filtered > il_closed_by_an_instant(data, p, n_est)
+    explains_il(filtered) && filtered > instant()
 }
 
 /// Least value of `f` on `[lo, hi]` by `iterations` golden-section steps (for a function with
@@ -1277,12 +1277,14 @@ pub(crate) const SENSOR_FILTER_LATE: SimulatedEffect =
 
 /// `sensor_filter` on both channels: `il` too read through a low-pass (its own time constant),
 /// as behind a controller's anti-alias filter on each ADC input or a current-sense amplifier's
-/// bandwidth. Tried where the model misses il materially.
+/// bandwidth. Tried in a forward step where the model misses il materially and il shows a
+/// filter ([`il_shows_a_filter`]).
 pub(crate) const SENSOR_FILTER_BOTH: SimulatedEffect =
     SimulatedEffect { name: "sensor_filter", extra: &[(Free::VoutFilter, 0.1), (Free::IlFilter, 0.1)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false };
 
 /// The simulator form of the effect `name` that frees what `frees` holds: the filter read late
-/// where its instant is among them, else the effect's one form.
+/// where its instant is among them, on both channels where il's filter is, else the effect's
+/// one form.
 pub(crate) fn simulated_form(name: &str, frees: impl Fn(Free) -> bool) -> Option<&'static SimulatedEffect> {
     let forms: [&'static SimulatedEffect; 2] = [&SENSOR_FILTER_LATE, &SENSOR_FILTER_BOTH];
     SIMULATED_EFFECTS.iter().chain(forms).filter(|s| s.name == name && s.extra.iter().all(|&(f, _)| frees(f))).max_by_key(|s| s.extra.len())

@@ -466,7 +466,7 @@ impl Extension {
         let data = self.stack.data(data);
         match self.name {
             "sample_delay" => fit.judge_in_il(&data, against, late, n_est, tolerance),
-            "sensor_filter" if self.added().contains(&Free::SampleDelay) || self.added().contains(&Free::IlFilter) => fit.judge_late_filter_in_il(&data, against, late, n_est),
+            "sensor_filter" if self.added().iter().any(|f| f.pinned_by_il()) => fit.judge_late_filter_in_il(&data, against, late, n_est),
             _ => {}
         }
     }
@@ -1093,7 +1093,7 @@ pub(crate) fn forward(
             if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && extensions.iter().any(|x| x.name == "sensor_filter") {
                 extensions.push(stack.extension_of(&SENSOR_FILTER_BOTH, io_mean));
             }
-            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| (x.added().contains(&Free::SampleDelay) || x.added().contains(&Free::IlFilter)) && il_missed);
+            let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.added().iter().any(|f| f.pinned_by_il()) && il_missed);
             if late_pending {
                 rest.clear();
             }
@@ -1103,17 +1103,18 @@ pub(crate) fn forward(
             // (the late reading's fit explains il, or the best instant on il alone does) but the
             // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
             // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
+            // The filter on both channels before it, where il shows a filter rather than an
+            // instant (`il_shows_a_filter`); the instant's screen serves both.
             let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
             let (both, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.added().contains(&Free::IlFilter));
             let late_trials = || {
+                let instant = std::cell::OnceCell::new();
+                let il_instant = || *instant.get_or_init(|| il_closed_by_an_instant(&stack.data(data), &stack.params, n_est));
                 let mut t: Vec<_> = delays.iter().filter_map(try_one).collect();
-                if !both.is_empty() && !t.iter().any(|t| t.0.finding) && il_shows_a_filter(&stack.data(data), &stack.params, n_est) {
+                if !both.is_empty() && !t.iter().any(|t| t.0.finding) && il_shows_a_filter(&stack.data(data), &stack.params, n_est, il_instant) {
                     t.extend(both.iter().filter_map(try_one));
                 }
-                if !filters.is_empty()
-                    && !t.iter().any(|t| t.0.finding)
-                    && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_closed_by_an_instant(&stack.data(data), &stack.params, n_est)))
-                {
+                if !filters.is_empty() && !t.iter().any(|t| t.0.finding) && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_instant())) {
                     t.extend(filters.iter().filter_map(try_one));
                 }
                 t
