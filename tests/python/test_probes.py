@@ -314,3 +314,19 @@ def test_filters_on_both_channels_are_found_and_cl_holds(own_capture, buckid_bin
         assert abs(selected["sensor_filter"]["params"][name] / tau - 1) < 0.05, selected["sensor_filter"]["params"]
     final = dx["selected"][-1]["cl"]
     assert final["ci95"][0] <= 10e-6 <= final["ci95"][1], final
+
+
+@needs_ngspice
+def test_a_filter_on_il_alone_is_found_from_il_and_cl_holds(own_capture, buckid_bin, tmp_path):
+    """The same capture read 40 ns after each period start, vout directly and il through a
+    first-order low-pass (tau = T/pi: a current-sense amplifier's bandwidth). The filter has no
+    evidence in vout; il shows it, and it is found on il alone, its time constant within 5 %,
+    with no filter on vout, and Cl holds. Before, a load ESR stood in for il's lag."""
+    tau = 1 / (math.pi * 330e3)
+    dx = _read_at(own_capture, buckid_bin, tmp_path, lambda duty: 40e-9 * 330e3, taus=(0.0, tau))
+    filters = [e for e in dx["selected"] if e["name"] == "sensor_filter"]
+    assert [sorted(e["params"]) for e in filters] == [["il_filter"]], ([e["name"] for e in dx["selected"]], dx["selection_ended"])
+    assert abs(filters[0]["params"]["il_filter"] / tau - 1) < 0.05, filters[0]["params"]
+    assert "load_esr" not in [e["name"] for e in dx["selected"]], dx["selection_ended"]
+    final = dx["selected"][-1]["cl"]
+    assert final["ci95"][0] <= 10e-6 <= final["ci95"][1], final

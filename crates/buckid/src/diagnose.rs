@@ -149,7 +149,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<()> {
         let closed = match (e.closed_percent, dx.location.noise_floor_from) {
             (Some(c), _) => format!("{c:.1} % of the gap over the floor closed"),
             (None, gap::FloorSource::ModelResidual) => format!("held-out NRMSE {:+.1} % (no model-free floor to measure a gap against)", -e.shrink_percent),
-            (None, gap::FloorSource::Differences) => "no gap above the floor".to_string(),
+            (None, gap::FloorSource::Differences) => "no gap in vout above the floor".to_string(),
         };
         println!("selected    {}. {:16} {}; held-out residual {}  {}", i + 1, e.label(), closed, si(e.rms_after, "V", 3), effect_params(e).join(", "));
         if let Some(alike) = alike_text(e) {

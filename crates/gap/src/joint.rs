@@ -141,9 +141,7 @@ fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Cand
     let x = Extension::within(with, g.name, &g.frees, against.fit.params);
     let t = x.assess(cand.clone(), data, nominal).ok()?;
     let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
-    if g.name == "sample_delay" {
-        fit.judge_in_il(&with.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
-    }
+    fit.judge_by_il(&g.frees, &with.data(data), &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
     Some(fit.into_step())
 }
 

@@ -403,6 +403,10 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             let (selected, ended) = path(&steps);
             (selected, format!("{note}: {ended}"))
         }
+        // Nothing in vout, il read through a filter (see `select::il_filter_first`).
+        None if let Some(step) = (switched && opts.nominal == Nominal::Switched).then(|| select::il_filter_first(data, nominal, base.fit.params.cl, n_est, opts.holdout, &baseline)).flatten() => {
+            path(std::slice::from_ref(&step))
+        }
         None => {
             // The candidate closing most of a material share that ended on a bound, if any.
             let on_bound = effects.iter().filter(|e| e.at_bound && e.material).filter_map(|e| Some((e.name, e.closed_percent?))).max_by(|a, b| a.1.total_cmp(&b.1));

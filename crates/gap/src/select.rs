@@ -26,9 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect,
-    Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially, il_shows_a_filter, judge, reads_vout,
-    record_bias_law, residual, rms, simulated_form, variance,
+    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_IL, SENSOR_FILTER_LATE,
+    SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially,
+    il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -459,16 +459,10 @@ pub(crate) struct Extension {
 }
 
 impl Extension {
-    /// Judges its fit `fit` (circuit values `late`, on top of the model `against`) in il where it
-    /// reads late: the late reading alone ([`EffectFit::judge_in_il`]), the filter read late
-    /// ([`EffectFit::judge_late_filter_in_il`]).
+    /// Judges its fit `fit` (circuit values `late`, on top of the model `against`) in il where
+    /// its evidence is there ([`EffectFit::judge_by_il`]).
     fn judge_in_il(&self, fit: &mut EffectFit, data: &DataSet, against: &Params, late: &Params, n_est: usize, tolerance: f64) {
-        let data = self.stack.data(data);
-        match self.name {
-            "sample_delay" => fit.judge_in_il(&data, against, late, n_est, tolerance),
-            "sensor_filter" if self.added().iter().any(|f| f.pinned_by_il()) => fit.judge_late_filter_in_il(&data, against, late, n_est),
-            _ => {}
-        }
+        fit.judge_by_il(self.added(), &self.stack.data(data), against, late, n_est, tolerance);
     }
 
     /// The free parameters it adds to the model it extends.
@@ -633,6 +627,29 @@ pub(crate) fn topology_rival<'a>(effects: &'a [EffectFit], first: &EffectFit) ->
     best_material(candidates, |e| e)
 }
 
+/// The first step where `vout` shows nothing material and the inductor current, read through a
+/// filter, is all the data says: il's reading alone through a low-pass ([`SENSOR_FILTER_IL`]: a
+/// current-sense amplifier's bandwidth behind a vout read directly), on the switched nominal
+/// with Cl at `cl`, where il misses materially and shows a filter ([`il_shows_a_filter`]), and
+/// a finding in il ([`EffectFit::judge_il_filter_in_il`]). Not behind a diode, whose blocked
+/// periods start with il at zero.
+pub(crate) fn il_filter_first(data: &DataSet, nominal: &Params, cl: f64, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<EffectFit> {
+    if nominal.asynchronous() || baseline.misses_materially(baseline.rms) != Some(false) {
+        return None;
+    }
+    let stack = Stack::nominal(nominal, cl, true);
+    let against = stack.fit(data, &[stack.params], n_est, holdout).ok()?;
+    let p = against.fit.params;
+    if !il_misses_materially(data, &p, n_est) || il_shows_a_filter(data, &p, n_est, || il_closed_by_an_instant(data, &p, n_est)).is_none_or(|c| c < IL_ALONE_EXPLAINED) {
+        return None;
+    }
+    let x = Stack { params: p, ..stack }.extension_of(&SENSOR_FILTER_IL, io_mean(data));
+    let (mut fit, cand) = judge(x.name, x.trial(data, nominal, n_est, holdout).ok()?, &against, n_est, baseline);
+    x.judge_in_il(&mut fit, data, &p, &cand.fit.params, n_est, baseline.tolerance);
+    let fit = fit.into_step();
+    fit.finding.then_some(fit)
+}
+
 /// The first step whose path is followed too where the path from `first` still misses
 /// materially, and what it is to `first`: the other topology's ([`topology_rival`]), or, where
 /// `first` reads the outputs a period late (`delay` −1), a reading late within the period
@@ -742,9 +759,10 @@ impl Linearization {
         let est = stack.data(data).slice(0..n_est);
         let y0 = Self::run(&stack.params, &est, start)?;
         let r = DVector::from_vec(est.vout[BURN_IN..].to_vec()) - &y0;
-        // A late reading that il pins is held while the rest is fitted to vout (see
-        // `estimator::simulated`): no direction of vout's own.
-        let pinned = |f: &Free| *f == Free::SampleDelay && stack.free.len() > 1 && est.il.is_some();
+        // What il pins (a late reading, il's filter) is held while the rest is fitted to vout
+        // (see `estimator::simulated`): no direction of vout's own (il's filter has none at all,
+        // and its column made every screen on top of it singular).
+        let pinned = |f: &Free| f.pinned_by_il() && stack.free.len() > 1 && est.il.is_some();
         let directions: Vec<Free> = stack.free.iter().copied().filter(|f| !pinned(f)).collect();
         let columns: Vec<DVector<f64>> = directions
             .par_iter()
@@ -1093,6 +1111,10 @@ pub(crate) fn forward(
             if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && extensions.iter().any(|x| x.name == "sensor_filter") {
                 extensions.push(stack.extension_of(&SENSOR_FILTER_BOTH, io_mean));
             }
+            // il's filter alone: on vout read directly, or added to a vout filter already in.
+            if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && stack.delay == 0 {
+                extensions.push(stack.extension_of(&SENSOR_FILTER_IL, io_mean));
+            }
             let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.added().iter().any(|f| f.pinned_by_il()) && il_missed);
             if late_pending {
                 rest.clear();
@@ -1104,15 +1126,23 @@ pub(crate) fn forward(
             // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
             // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
             // The filter on both channels before it, where il shows a filter rather than an
-            // instant (`il_shows_a_filter`); the instant's screen serves both.
+            // instant (`il_shows_a_filter`), then il's alone where il shows it plainly
+            // (`IL_ALONE_EXPLAINED`) and the filter on both channels is no finding; the
+            // instant's screen serves them all.
             let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
-            let (both, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.added().contains(&Free::IlFilter));
+            let (il_filters, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.added().contains(&Free::IlFilter));
+            let (both, il_alone): (Vec<Extension>, Vec<Extension>) = il_filters.into_iter().partition(|x| x.added().contains(&Free::VoutFilter));
             let late_trials = || {
                 let instant = std::cell::OnceCell::new();
                 let il_instant = || *instant.get_or_init(|| il_closed_by_an_instant(&stack.data(data), &stack.params, n_est));
                 let mut t: Vec<_> = delays.iter().filter_map(try_one).collect();
-                if !both.is_empty() && !t.iter().any(|t| t.0.finding) && il_shows_a_filter(&stack.data(data), &stack.params, n_est, il_instant) {
+                let offered = !both.is_empty() || !il_alone.is_empty();
+                let shown = if offered && !t.iter().any(|t| t.0.finding) { il_shows_a_filter(&stack.data(data), &stack.params, n_est, il_instant) } else { None };
+                if shown.is_some() {
                     t.extend(both.iter().filter_map(try_one));
+                }
+                if shown.is_some_and(|c| c >= IL_ALONE_EXPLAINED) && !t.iter().any(|t| t.0.finding) {
+                    t.extend(il_alone.iter().filter_map(try_one));
                 }
                 if !filters.is_empty() && !t.iter().any(|t| t.0.finding) && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_instant())) {
                     t.extend(filters.iter().filter_map(try_one));
