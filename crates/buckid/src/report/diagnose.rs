@@ -61,6 +61,15 @@ pub struct Step<'a> {
     pub closed_percent: f64,
     /// Held-out residual RMS with it [V].
     pub rms_after: f64,
+    /// Share of il's gap above its floor it closed, where it is judged in il (a late reading,
+    /// il's filter) [%].
+    pub il_closed_percent: Option<f64>,
+}
+
+/// A share closed [%], to a tenth of a percent (a step that closes nothing of vout's gap, as
+/// one judged in il, reads 0.0 %, not "−0.000362 %").
+fn share_closed(v: f64) -> String {
+    format!("{:.1} %", if v.abs() < 0.05 { 0.0 } else { v })
 }
 
 /// The forward selection as a waterfall of the nominal's gap above the noise floor: the gap
@@ -71,8 +80,10 @@ pub fn waterfall<'a>(gap_rms: f64, steps: &[Step<'_>]) -> Bars<'a> {
     for s in steps {
         let next = 100.0 - s.closed_percent;
         let closed = level - next;
-        let color = if closed >= 0.0 { GREEN } else { RED };
-        bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed", si(closed, "%", 3)) });
+        // Red where it made the gap wider by what the text shows.
+        let color = if closed > -0.05 { GREEN } else { RED };
+        let in_il = s.il_closed_percent.map_or(String::new(), |c| format!("; il's gap {} closed", share_closed(c)));
+        bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed{in_il}", share_closed(closed)) });
         level = next;
     }
     bars.push(Bar { label: "left above the floor".into(), from: 0.0, to: level, color: GREY, text: si(level, "%", 3) });
@@ -130,7 +141,8 @@ pub fn write(dir: &Path, dx: &Diagnosis, ctx: &Context<'_>) -> Result<PathBuf> {
     }
     let signature = Chart { title: "Held-out residual against the noise floor: the effect's signature", x: Axis::linear("time since hold-out start", "s"), panels };
 
-    let steps: Option<Vec<Step<'_>>> = dx.selected.iter().zip(&labels).map(|(e, label)| Some(Step { name: label, closed_percent: e.closed_percent?, rms_after: e.rms_after })).collect();
+    let steps: Option<Vec<Step<'_>>> =
+        dx.selected.iter().zip(&labels).map(|(e, label)| Some(Step { name: label, closed_percent: e.closed_percent?, rms_after: e.rms_after, il_closed_percent: e.il_closed_percent })).collect();
 
     let rows: Vec<Vec<String>> = dx
         .effects
@@ -248,13 +260,17 @@ mod tests {
 
     #[test]
     fn the_waterfall_has_the_gap_one_bar_per_selected_effect_and_what_is_left() {
-        let steps = [Step { name: "diode_drop", closed_percent: 80.0, rms_after: 3e-3 }, Step { name: "dead_time", closed_percent: 95.0, rms_after: 2.1e-3 }];
+        let step = |name, closed_percent, rms_after, il_closed_percent| Step { name, closed_percent, rms_after, il_closed_percent };
+        let steps = [step("diode_drop", 80.0, 3e-3, None), step("dead_time", 95.0, 2.1e-3, None), step("sensor_filter (il)", 94.9996, 2.1e-3, Some(99.94))];
         let w = waterfall(9e-3, &steps);
         let spans: Vec<(f64, f64)> = w.bars.iter().map(|b| (b.from, b.to)).collect();
-        assert_eq!(spans, vec![(0.0, 100.0), (20.0, 100.0), (5.0, 20.0), (0.0, 5.0)]);
+        assert_eq!(spans[..3], [(0.0, 100.0), (20.0, 100.0), (5.0, 20.0)]);
+        assert_eq!(spans.len(), 5, "the gap, three steps, what is left");
         assert_eq!(w.bars[2].text, "15.0 % closed");
+        // A step judged in il closes nothing of vout's gap, and says what it closes of il's.
+        assert_eq!(w.bars[3].text, "0.0 % closed; il's gap 99.9 % closed");
         let svg = w.render().unwrap();
-        assert_eq!(svg.matches(r##"fill="#2CA02C""##).count(), 2, "one green bar per selected effect");
+        assert_eq!(svg.matches(r##"fill="#2CA02C""##).count(), 3, "one green bar per selected effect");
         assert!(svg.contains("+ dead_time → 2.10 mV") && svg.contains("nominal model, residual 9.00 mV RMS"));
     }
 }
