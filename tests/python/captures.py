@@ -11,7 +11,10 @@ until they are recorded again with
 
     BUCKID_RECORD_CAPTURES=1 .venv/bin/python -m pytest -n auto tests/python
 
-which simulates each missing run and stores it (and leaves unused entries for `git rm`).
+which simulates each missing run and stores it (and leaves unused entries for `git rm`). The
+Rust blind tests read the harness's runs from the same store under the same key
+(`crates/blind/src/captures.rs`; record theirs with `BUCKID_RECORD_CAPTURES=1 cargo test -p blind
+--test blind`).
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@
 //! diagnosis cannot peek.
 #![forbid(unsafe_code)]
 
+mod captures;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -326,6 +328,9 @@ pub struct Harness {
     pub python: PathBuf,
     /// The harness script.
     pub script: PathBuf,
+    /// The repository, whose recorded runs (`tests/fixtures/captures`) are read instead of
+    /// simulated.
+    pub root: PathBuf,
 }
 
 impl Harness {
@@ -334,7 +339,7 @@ impl Harness {
         let python = root.join(".venv/bin/python");
         let script = root.join("scripts/spice/harness/harness.py");
         let ngspice = std::env::var_os("PATH").is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("ngspice").is_file()));
-        (ngspice && python.is_file() && script.is_file()).then_some(Self { python, script })
+        (ngspice && python.is_file() && script.is_file()).then_some(Self { python, script, root: root.to_path_buf() })
     }
 }
 
@@ -509,16 +514,26 @@ pub fn harness_case(truth: Truth, seed: u64, harness: &Harness, periods: usize) 
             format!("{}", truth.io),
             "--effects".into(),
             truth.effects().join(","),
-            "--out".into(),
-            out.display().to_string(),
         ];
         for (name, value) in settings {
             args.extend([format!("--{}", name.replace('_', "-")), format!("{value:e}")]);
         }
-        let output = Command::new(&harness.python).arg(&harness.script).args(&args).output().map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
-        if !output.status.success() {
-            let stderr = String::from_utf8_lossy(&output.stderr);
-            return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));
+        let store_error = |e: std::io::Error| EstimatorError::Io { path: "tests/fixtures/captures".into(), source: e };
+        if !captures::read_recorded(&harness.root, &harness.script, &args, &out).map_err(store_error)? {
+            let output = Command::new(&harness.python)
+                .arg(&harness.script)
+                .args(&args)
+                .arg("--out")
+                .arg(&out)
+                .output()
+                .map_err(|e| EstimatorError::Io { path: harness.python.display().to_string(), source: e })?;
+            if !output.status.success() {
+                let stderr = String::from_utf8_lossy(&output.stderr);
+                return Err(EstimatorError::Plant(format!("harness failed ({}) with {}: {stderr}", output.status, args.join(" "))));
+            }
+            if captures::recording() {
+                captures::record(&harness.root, &harness.script, &args, &out).map_err(store_error)?;
+            }
         }
         DataSet::read_csv(&out)
     };
