@@ -748,9 +748,10 @@ impl EffectFit {
 
     /// For a filter in front of the `il` reading alone ([`SENSOR_FILTER_IL`], circuit values
     /// `filtered`) on top of the model `against`: sets [`EffectFit::il_closed_percent`], and is a
-    /// finding where it closes [`IL_ALONE_EXPLAINED`] of il's material gap, leaving no more than a
-    /// late reading may (see [`EffectFit::judge_in_il`]), identified and inside its range. It moves no `vout`, so what
-    /// it closes there says nothing; il's material gap, which it explains, is its evidence.
+    /// finding where it closes [`IL_ALONE_EXPLAINED`] of il's material gap, leaving no more than
+    /// a late reading may (see [`EffectFit::judge_in_il`]), identified and inside its range. It
+    /// moves no `vout`, so what it closes there says nothing; il's material gap, which it
+    /// explains, is its evidence.
     pub(crate) fn judge_il_filter_in_il(&mut self, data: &DataSet, against: &Params, filtered: &Params, n_est: usize) {
         self.il_closed_percent = late_reading_in_il(data, against, filtered, n_est);
         self.finding = self.il_closed_percent.is_some_and(|c| c >= IL_ALONE_EXPLAINED) && self.identifiable && !self.at_bound;
@@ -1327,9 +1328,10 @@ pub(crate) const SENSOR_FILTER_BOTH: SimulatedEffect =
 /// `sensor_filter` on the `il` reading alone: a current-sense amplifier's bandwidth with `vout`
 /// read directly, or il's own anti-alias filter added to a model whose `vout` filter is already
 /// in (the plain filter takes `vout`'s gap first, and il's lag is then all that is left). Tried
-/// in a forward step where the model misses il materially, il shows a filter
-/// ([`il_shows_a_filter`]) and the filter on both channels is no finding; judged in il alone
-/// ([`EffectFit::judge_il_filter_in_il`]): it moves no `vout`.
+/// where the model misses il materially and il shows a filter plainly ([`il_shows_a_filter`] at
+/// [`IL_ALONE_EXPLAINED`]): in a forward step where the filter on both channels is no finding,
+/// and as the first step where `vout` has no material gap (`select::il_filter_first`). Judged
+/// in il alone ([`EffectFit::judge_il_filter_in_il`]): it moves no `vout`.
 pub(crate) const SENSOR_FILTER_IL: SimulatedEffect = SimulatedEffect { name: "sensor_filter", extra: &[(Free::IlFilter, 0.1)], also_from: &[1.0 / 3.0], also_locked: &[], dcm: false };
 
 /// The simulator form of the effect `name` that frees what `frees` holds: the filter read late
