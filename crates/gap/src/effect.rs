@@ -668,8 +668,8 @@ const IL_FILTER_GRID: [f64; 5] = [1.0 / 30.0, 0.1, 1.0 / 3.0, 1.0, 2.0];
 /// filter read at the period start lifts il's valley towards its mean, which an offset takes
 /// too, but it also lags il's steps, which none does: our own ngspice buck's filtered il, 103
 /// floors off, was 15–21 floors off calibrated and 6–10 with the filter (53–92 % of that
-/// closed); a lab buck's il read 6 % low, 31 floors off, was 6.4 calibrated and 6.5 with the
-/// best filter, whose fit then closed 20 % of il's gap, for a "96 %" screen.
+/// closed); a third-generator lab board's, 31 floors off, was 6.4 calibrated and 6.5 with the
+/// best filter, whose fits then closed 20–71 % of il's gap, for a "96 %" screen.
 pub(crate) fn il_closed_by_a_filter(data: &DataSet, p: &Params, n_est: usize) -> Option<f64> {
     let (before, floor, floor_samples) = il_residual(data, p, n_est)?;
     let il = data.il.as_ref()?;
@@ -698,7 +698,7 @@ pub(crate) fn il_shows_a_filter(data: &DataSet, p: &Params, n_est: usize, instan
 /// no evidence in vout, and what shapes il's sampled ripple explains a part of il too (a lab
 /// buck's inductance 7.5 % high, behind a late reading that stood in for it, left il a gap that
 /// a 0.69 µs filter closed 82 % of; a late ADC beside a saturating inductor, 76 % with 82 ns).
-/// A filter il is read through closes it all: our FMU's, 99.9 %.
+/// A filter il is read through closes it all: our FMU's and our ngspice buck's, 99.9–100 %.
 pub(crate) const IL_ALONE_EXPLAINED: f64 = 95.0;
 
 /// Least value of `f` on `[lo, hi]` by `iterations` golden-section steps (for a function with
