@@ -38,9 +38,9 @@ fn model_name(n: Nominal) -> &'static str {
     }
 }
 
-/// A `[%]` share, or `–` when there is none.
+/// A `[%]` share ([`share_closed`]), or `–` when there is none.
 fn percent(v: Option<f64>) -> String {
-    v.map_or_else(|| "–".to_string(), |c| si(c, "%", 3))
+    v.map_or_else(|| "–".to_string(), share_closed)
 }
 
 fn group_bars<'a>(title: &'a str, groups: &[Group]) -> Bars<'a> {
@@ -272,5 +272,12 @@ mod tests {
         let svg = w.render().unwrap();
         assert_eq!(svg.matches(r##"fill="#2CA02C""##).count(), 3, "one green bar per selected effect");
         assert!(svg.contains("+ dead_time → 2.10 mV") && svg.contains("nominal model, residual 9.00 mV RMS"));
+    }
+
+    /// The tables' shares read as the waterfall's: a tenth of a percent, nothing closed as 0.0 %
+    /// (a step judged in il closes −0.0159 % of vout's gap), none as `–`.
+    #[test]
+    fn shares_are_given_to_a_tenth_of_a_percent() {
+        assert_eq!([Some(97.73), Some(-0.0159), Some(-12.36), None].map(percent), ["97.7 %", "0.0 %", "-12.4 %", "–"]);
     }
 }
