@@ -720,8 +720,8 @@ fn an_anti_alias_filter_in_our_fmu_is_named_with_its_time_constant() {
 fn filters_on_both_channels_of_our_fmus_adc_are_named_with_their_time_constants() {
     let (tau, il_tau) = (1.0 / (std::f64::consts::PI * 330e3), 0.75 / (std::f64::consts::PI * 330e3));
     let filters = [format!("adc_filter={tau:e}"), format!("adc_il_filter={il_tau:e}")];
-    for circuit in [&[][..], &["dead_time"]] {
-        let adc: Vec<&str> = circuit.iter().map(|_| "dead_time=30e-9").chain(filters.iter().map(String::as_str)).collect();
+    for (settings, circuit) in [(&[][..], &[][..]), (&["dead_time=30e-9"], &["dead_time"])] {
+        let adc: Vec<&str> = settings.iter().copied().chain(filters.iter().map(String::as_str)).collect();
         let dx = diagnose_our_fmus_adc(&adc, false);
         // The filter on both channels, or vout's then il's.
         let names = selected_names(&dx);

@@ -689,8 +689,7 @@ pub(crate) fn il_closed_by_a_filter(data: &DataSet, p: &Params, n_est: usize) ->
 /// [`il_closed_by_an_instant`] on the same model, asked for only then; a reading taken late
 /// shifts il along its ripple, which a lag imitates in part).
 pub(crate) fn il_shows_a_filter(data: &DataSet, p: &Params, n_est: usize, instant: impl FnOnce() -> Option<f64>) -> Option<f64> {
-    let filtered = il_closed_by_a_filter(data, p, n_est);
-    (explains_il(filtered) && filtered > instant()).then_some(filtered?)
+    il_closed_by_a_filter(data, p, n_est).filter(|&filtered| explains_il(Some(filtered)) && Some(filtered) > instant())
 }
 
 /// Share of il's material gap [%] a filter in front of the il reading alone must close to be a

@@ -38,9 +38,9 @@ fn model_name(n: Nominal) -> &'static str {
     }
 }
 
-/// A `[%]` share ([`share_closed`]), or `–` when there is none.
+/// A `[%]` share ([`share_text`]), or `–` when there is none.
 fn percent(v: Option<f64>) -> String {
-    v.map_or_else(|| "–".to_string(), share_closed)
+    v.map_or_else(|| "–".to_string(), share_text)
 }
 
 fn group_bars<'a>(title: &'a str, groups: &[Group]) -> Bars<'a> {
@@ -66,10 +66,13 @@ pub struct Step<'a> {
     pub il_closed_percent: Option<f64>,
 }
 
-/// A share closed [%], to a tenth of a percent (a step that closes nothing of vout's gap, as
-/// one judged in il, reads 0.0 %, not "−0.000362 %").
-fn share_closed(v: f64) -> String {
-    format!("{:.1} %", if v.abs() < 0.05 { 0.0 } else { v })
+/// The least share [%] the report shows as other than nothing: half its last digit.
+const LEAST_SHOWN: f64 = 0.05;
+
+/// A share [%] to a tenth of a percent (a step that closes nothing of vout's gap, as one judged
+/// in il, reads 0.0 %, not "−0.000362 %").
+fn share_text(v: f64) -> String {
+    format!("{:.1} %", if v.abs() < LEAST_SHOWN { 0.0 } else { v })
 }
 
 /// The forward selection as a waterfall of the nominal's gap above the noise floor: the gap
@@ -81,9 +84,9 @@ pub fn waterfall<'a>(gap_rms: f64, steps: &[Step<'_>]) -> Bars<'a> {
         let next = 100.0 - s.closed_percent;
         let closed = level - next;
         // Red where it made the gap wider by what the text shows.
-        let color = if closed > -0.05 { GREEN } else { RED };
-        let in_il = s.il_closed_percent.map_or(String::new(), |c| format!("; il's gap {} closed", share_closed(c)));
-        bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed{in_il}", share_closed(closed)) });
+        let color = if closed > -LEAST_SHOWN { GREEN } else { RED };
+        let in_il = s.il_closed_percent.map_or(String::new(), |c| format!("; il's gap {} closed", share_text(c)));
+        bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed{in_il}", share_text(closed)) });
         level = next;
     }
     bars.push(Bar { label: "left above the floor".into(), from: 0.0, to: level, color: GREY, text: si(level, "%", 3) });
