@@ -123,6 +123,13 @@ pub struct Params {
     /// with 3T/4: the middle of the off-time (where controllers read the average inductor
     /// current clear of the edges). 0 (the default): a fixed instant. Not an FMU parameter.
     pub sample_duty_share: f64,
+    /// How long after the `il` reading's instant `vout` is read [s], signed: the two channels
+    /// read at different instants, as a multiplexed ADC converts them one after the other or a
+    /// scope's current probe is not deskewed against its voltage probe. `il` is read at the
+    /// sampling instant ([`Params::sample_instant`]), `vout` this much later (earlier where
+    /// negative); both must lie within the period. 0 (the default): one instant. Not a circuit
+    /// value and not an FMU parameter (`channel_skew` effect).
+    pub vout_skew: f64,
     /// Time constant of a first-order low-pass the `vout` reading passes through before it is
     /// sampled [s]: the RC anti-alias filter in front of a controller's ADC, commonly with its
     /// corner near half the switching frequency (τ ≈ T/π). 0 (the default): read directly. Not
@@ -228,6 +235,7 @@ impl Default for Params {
             rload: 0.0,
             sample_delay: 0.0,
             sample_duty_share: 0.0,
+            vout_skew: 0.0,
             vout_filter: 0.0,
             il_filter: 0.0,
             vout_offset: 0.0,

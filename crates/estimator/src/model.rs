@@ -149,6 +149,8 @@ pub enum Free {
     /// `sample_delay`: the outputs sampled this long after each period start
     /// ([`Structure::Simulated`] only).
     SampleDelay,
+    /// `vout_skew`: `vout` read this long after `il`, signed ([`Structure::Simulated`] only).
+    VoutSkew,
     /// `vout_filter`: the `vout` reading through a first-order low-pass of this time constant
     /// ([`Structure::Simulated`] only).
     VoutFilter,
@@ -185,6 +187,7 @@ impl Free {
             Free::Isat => "isat",
             Free::CapDcBias => "cap_dc_bias",
             Free::SampleDelay => "sample_delay",
+            Free::VoutSkew => "vout_skew",
             Free::VoutFilter => "vout_filter",
             Free::IlFilter => "il_filter",
             Free::VoutOffset => "vout_offset",
@@ -214,12 +217,14 @@ impl Free {
         }
     }
 
-    /// The unit of a signed parameter's unknown (an offset or a gain error of a reading, which
-    /// may have either sign and is fitted on a linear scale), `None` for the positive ones.
+    /// The unit of a signed parameter's unknown (an offset or a gain error of a reading, or the
+    /// skew of its channels, which may have either sign and is fitted on a linear scale), `None`
+    /// for the positive ones.
     pub fn signed_scale(self) -> Option<f64> {
         match self {
             Free::VoutOffset => Some(10e-3),
             Free::VoutGainError => Some(1e-2),
+            Free::VoutSkew => Some(10e-9),
             _ => None,
         }
     }
@@ -268,7 +273,7 @@ impl Free {
     /// A calibration of the vout reading (`vout_offset`, `vout_gain_error`) rather than of the
     /// circuit.
     pub fn calibrates_reading(self) -> bool {
-        self.signed_scale().is_some()
+        matches!(self, Free::VoutOffset | Free::VoutGainError)
     }
 
     /// Whether only [`Structure::Exact`] models this parameter.
@@ -310,6 +315,7 @@ impl Free {
             Free::Isat => p.isat,
             Free::CapDcBias => p.cap_dc_bias,
             Free::SampleDelay => p.sample_delay,
+            Free::VoutSkew => p.vout_skew,
             Free::VoutFilter => p.vout_filter,
             Free::IlFilter => p.il_filter,
             Free::VoutOffset => p.vout_offset,
@@ -339,6 +345,7 @@ impl Free {
             Free::Isat => p.isat = value,
             Free::CapDcBias => p.cap_dc_bias = value,
             Free::SampleDelay => p.sample_delay = value,
+            Free::VoutSkew => p.vout_skew = value,
             Free::VoutFilter => p.vout_filter = value,
             Free::IlFilter => p.il_filter = value,
             Free::VoutOffset => p.vout_offset = value,
@@ -511,7 +518,7 @@ impl Model {
         if free.is_empty() {
             return Err(EstimatorError::Config("at least one free parameter is needed".into()));
         }
-        if let Some(f) = free.iter().find(|f| matches!(f, Free::SampleDelay | Free::VoutFilter | Free::IlFilter)) {
+        if let Some(f) = free.iter().find(|f| matches!(f, Free::SampleDelay | Free::VoutSkew | Free::VoutFilter | Free::IlFilter)) {
             return Err(EstimatorError::Config(format!("the free parameter `{}` is modelled by the simulated structure only, not by `{}`", f.name(), structure.name())));
         }
         if structure != Structure::Exact
@@ -963,17 +970,18 @@ mod tests {
         assert_eq!(Free::Cl.relative_slope(-13.0), 1.0);
     }
 
-    /// A reading's calibration may have either sign: its unknown is the value in units of its
-    /// scale (round trips through zero and below it), its relative slope `|d ln |v|/du|`; a
-    /// circuit value stays on the log scale.
+    /// A reading's calibration, and its channels' skew, may have either sign: its unknown is the
+    /// value in units of its scale (round trips through zero and below it), its relative slope
+    /// `|d ln |v|/du|`; a circuit value stays on the log scale.
     #[test]
     fn a_reading_calibration_is_fitted_on_a_signed_linear_scale() {
-        for f in [Free::VoutOffset, Free::VoutGainError] {
-            assert!(f.calibrates_reading() && f.ceiling().is_none());
-            for v in [-0.05, -1e-4, 0.0, 2e-3, 0.3] {
-                assert!((f.from_unknown(f.to_unknown(v)) - v).abs() < 1e-15, "{f:?} {v}");
+        for f in [Free::VoutOffset, Free::VoutGainError, Free::VoutSkew] {
+            assert!(f.calibrates_reading() == (f != Free::VoutSkew) && f.ceiling().is_none());
+            let scale = f.signed_scale().unwrap();
+            for v in [-5.0, -0.01, 0.0, 0.2, 30.0].map(|k| k * scale) {
+                assert!((f.from_unknown(f.to_unknown(v)) - v).abs() < 1e-15 * scale, "{f:?} {v}");
             }
-            let u = f.to_unknown(-0.02);
+            let u = f.to_unknown(-2.0 * scale);
             let h = 1e-6;
             let slope = (f.from_unknown(u + h).abs().ln() - f.from_unknown(u - h).abs().ln()) / (2.0 * h);
             assert!((f.relative_slope(u) - slope.abs()).abs() < 1e-6 * slope.abs(), "{f:?}: {slope}");

@@ -148,18 +148,16 @@ pub fn simulate(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<V
     simulate_outputs(p, data, start).map(|(vout, _)| vout)
 }
 
-/// [`simulate`], with the inductor current at the same instants as its reading shows it (through
-/// the low-pass `p.il_filter`, if any, [`Converter::il_read`]; its gain and zero errors).
+/// [`simulate`], with the inductor current as its reading shows it (at the sampling instant, which
+/// `vout`'s is `p.vout_skew` after; through the low-pass `p.il_filter`, if any,
+/// [`Converter::il_read`]; its gain and zero errors).
 pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<(Vec<f64>, Vec<f64>), EstimatorError> {
     // What the readings make of the voltage and the current (their gain and zero errors).
     let read = |v: f64| (1.0 + p.vout_gain_error) * v + p.vout_offset;
     let read_il = |i: f64| (1.0 + p.il_gain_error) * i + p.il_offset;
     let mut out = Vec::with_capacity(data.len());
-    let mut il = Vec::with_capacity(data.len());
-    drive(p, data, start, |conv, _, vout| {
-        out.push(read(vout));
-        il.push(read_il(conv.il_read()));
-    })?;
+    let (_, il) = drive(p, data, start, |_, _, vout| out.push(read(vout)))?;
+    let il: Vec<f64> = il.into_iter().map(read_il).collect();
     if out.iter().chain(&il).all(|v| v.is_finite()) { Ok((out, il)) } else { Err(EstimatorError::Fit("the simulation left the finite range".into())) }
 }
 
@@ -185,7 +183,7 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
     // At each sampling instant the last completed period is the one before it (none at the
     // first); the record's last period completes at its end.
     let (mut sum, mut blocked, mut first) = (0.0, 0usize, true);
-    let last = drive(p, data, start, |conv, il_at_start, _| {
+    let (last, _) = drive(p, data, start, |conv, il_at_start, _| {
         if !first {
             sum += conv.outputs().vout_avg;
             blocked += usize::from(il_at_start <= BLOCKED_IL);
@@ -207,12 +205,13 @@ pub fn operation(p: &Params, data: &DataSet, start: impl Into<Start>) -> Result<
 
 /// Runs the switched converter with circuit values `p` period by period on `data`'s duty, `io`
 /// and `vin`, from `start` (a voltage: both capacitors at it, the DC point's current), calling
-/// `at_sample` at each sampling instant (the period start, or `p.sample_delay` after it, moved
-/// with the duty by `p.sample_duty_share`) with the inductor current at the period's start and
-/// `vout` as read there (through the low-pass `p.vout_filter`, if any: the converter's ADC's
-/// anti-alias filter, [`Converter::vout_read`]). Returns the converter
-/// at the end of the record.
-fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64, f64)) -> Result<Converter, EstimatorError> {
+/// `at_sample` at each reading of `vout` (the period start, or `p.sample_delay` after it, moved
+/// with the duty by `p.sample_duty_share`, then by `p.vout_skew`) with the inductor current at
+/// the period's start and `vout` as read there (through the low-pass `p.vout_filter`, if any:
+/// the converter's ADC's anti-alias filter, [`Converter::vout_read`]). Returns the converter
+/// at the end of the record and the `il` readings at the sampling instants
+/// ([`Converter::il_read`]).
+fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: impl FnMut(&Converter, f64, f64)) -> Result<(Converter, Vec<f64>), EstimatorError> {
     let Start { v0, dil } = start.into();
     let plant = |e: buck_model::ModelError| EstimatorError::Plant(e.to_string());
     let period = data.sample_period();
@@ -237,29 +236,48 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
     let s0 = conv.state();
     let il0 = s0.il + (v0 - s0.vo) * conv.params().load_conductance();
     conv.set_state(State { il: il0 + dil, vc: v0, vo: v0, ic: 0.0 });
-    // The instant of each period's reading: fixed, or moving with its duty (an ADC triggered
-    // from the PWM).
-    let instant = |k: usize| p.sample_instant(data.duty[k], period);
-    if let Some(late) = (0..data.len()).map(instant).find(|late| !(0.0..MAX_SAMPLE_DELAY * period).contains(late)) {
+    // The instants of each period's readings, `[vout, il]`: fixed, or moving with its duty (an
+    // ADC triggered from the PWM); vout's apart from il's by the channels' skew.
+    let instants = |k: usize| {
+        let il = p.sample_instant(data.duty[k], period);
+        [il + p.vout_skew, il]
+    };
+    if let Some(late) = (0..data.len()).flat_map(instants).find(|late| !(0.0..MAX_SAMPLE_DELAY * period).contains(late)) {
         let lock = if p.sample_duty_share == 0.0 { String::new() } else { format!(" (sample_delay {:e} s plus {}·(D − ½)·T)", p.sample_delay, p.sample_duty_share) };
-        return Err(EstimatorError::Config(format!("a sampling instant {late:e} s{lock} must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
+        let skew = if p.vout_skew == 0.0 { String::new() } else { format!(" (vout read {:e} s after il)", p.vout_skew) };
+        return Err(EstimatorError::Config(format!("a sampling instant {late:e} s{lock}{skew} must lie in [0, {MAX_SAMPLE_DELAY}·T)")));
     }
+    let mut il_reads = Vec::with_capacity(data.len());
     for k in 0..data.len() {
         let il_at_start = conv.state().il;
-        let late = instant(k);
-        if late > 0.0 {
-            // The duty is latched at the period start; the reading comes `late` into it.
-            set_inputs(&mut conv, k)?;
-            conv.step(late).map_err(plant)?;
-            at_sample(&conv, il_at_start, conv.vout_read());
-            conv.step(period - late).map_err(plant)?;
-        } else {
-            at_sample(&conv, il_at_start, conv.vout_read());
-            set_inputs(&mut conv, k)?;
-            conv.step(period).map_err(plant)?;
+        let [at_vout, at_il] = instants(k);
+        // The duty is latched at the period start; the readings come where they are taken in it
+        // (at the start itself before the period's inputs are set), il's first where both come
+        // at once.
+        let reads = if at_vout < at_il { [(at_vout, true), (at_il, false)] } else { [(at_il, false), (at_vout, true)] };
+        let mut now = 0.0;
+        let mut inputs_set = false;
+        for (at, is_vout) in reads {
+            if at > now {
+                if !inputs_set {
+                    set_inputs(&mut conv, k)?;
+                    inputs_set = true;
+                }
+                conv.step(at - now).map_err(plant)?;
+                now = at;
+            }
+            if is_vout {
+                at_sample(&conv, il_at_start, conv.vout_read());
+            } else {
+                il_reads.push(conv.il_read());
+            }
         }
+        if !inputs_set {
+            set_inputs(&mut conv, k)?;
+        }
+        conv.step(period - now).map_err(plant)?;
     }
-    Ok(conv)
+    Ok((conv, il_reads))
 }
 
 /// Circuit values with the free parameters set from the unknowns `[ln θ | start]` (a logit for a
@@ -436,7 +454,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     }
     // What il pins (the sampling instant, il's filter: `Free::pinned_by_il`), where free beside
     // other values and the data has il: pinned on both channels first, then held (see the
-    // module doc).
+    // module doc). vout's own instant (`Free::VoutSkew`) is vout's: fitted with the rest.
     let pinned_at: Vec<usize> = (0..free.len()).filter(|&k| free[k].pinned_by_il()).collect();
     let pinned = Some(pinned_at).filter(|at| !at.is_empty() && free.len() > at.len()).zip(il_weight(&estimation));
     // The best start by the criterion of the first fit it goes into: both channels where the
@@ -499,7 +517,7 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
     let m = minimize(&start, &free_rest, logs, &estimation, criterion, None)?;
     let (s2, rest_covariance) = noise_and_covariance(&m, criterion)?;
     // The estimates and covariance in the order of `free` (then the start); the held values with
-    // their variances from the joint fit, uncorrelated with the rest.
+    // their variances from the joint fit, uncorrelated with the rest but vout's skew.
     let (covariance, logs) = match &delay {
         Some((at, held_logs, var, _)) => {
             let (mut covariance, mut logs) = (rest_covariance, m.logs.clone());
@@ -507,6 +525,16 @@ fn fit_from_starts(data: &DataSet, starts: &[Params], free: &[Free], n_est: usiz
                 covariance = covariance.insert_column(i, 0.0).insert_row(i, 0.0);
                 covariance[(i, i)] = var[k];
                 logs.insert(i, held_logs[k]);
+            }
+            // vout shows the instants only through their sum (its own instant): the skew fitted
+            // with il's held takes that one's error one for one, `d skew = −d delay`.
+            let index = |f: Free| free.iter().position(|g| *g == f);
+            if let (Some(s), Some(d)) = (index(Free::VoutSkew), index(Free::SampleDelay)) {
+                let slope = -Free::SampleDelay.from_unknown(logs[d]) / Free::VoutSkew.signed_scale().unwrap_or(1.0);
+                let var_d = covariance[(d, d)];
+                covariance[(s, s)] += slope * slope * var_d;
+                covariance[(s, d)] = slope * var_d;
+                covariance[(d, s)] = slope * var_d;
             }
             (covariance, logs)
         }
@@ -814,6 +842,52 @@ mod tests {
         let (offset, gain) = reading_calibration(&[3.2; 10], &flat);
         assert!((offset - 0.2).abs() < 1e-12 && gain == 0.0, "{offset} {gain}");
         assert_eq!(reading_calibration(&[], &[]), (0.0, 0.0));
+    }
+
+    /// Each channel read at its own instant: with `vout_skew`, `vout` is what a reading at the
+    /// sampling instant plus the skew gives, `il` what one at the instant gives, whichever comes
+    /// first; a skew that takes `vout`'s instant out of the period is a clear error naming it.
+    #[test]
+    fn each_channel_is_read_at_its_own_instant() {
+        let exp = Experiment { samples: 300, io: 1.5, ..Experiment::default() };
+        let data = run(&mut ModelPlant::new(Params::default(), Mode::Switched), &exp).unwrap();
+        let t = data.sample_period();
+        let read = |sample_delay: f64, vout_skew: f64| simulate_outputs(&Params { sample_delay, vout_skew, ..Params::default() }, &data, data.vout[0]);
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
+        for skew in [0.1 * t, -0.1 * t] {
+            let (vout, il) = read(0.2 * t, skew).unwrap();
+            let (vout_there, il_there) = read(0.2 * t + skew, 0.0).unwrap();
+            let (_, il_here) = read(0.2 * t, 0.0).unwrap();
+            assert!(close(&vout, &vout_there) && close(&il, &il_here), "skew {skew:e}");
+            // The skew matters: il a tenth of the period apart moves by the ripple's slope.
+            assert!(!close(&il, &il_there), "skew {skew:e}");
+        }
+        let err = read(0.1 * t, -0.2 * t).unwrap_err().to_string();
+        assert!(err.contains("vout read") && err.contains("must lie in"), "{err}");
+    }
+
+    /// vout and il read at different instants (vout 40 ns after each period start, il 70 ns: a
+    /// current probe 30 ns behind the voltage probe), fitted on both channels: both instants
+    /// and Cl come back inside their CI95. (The skew's interval carries il's instant's error,
+    /// which it takes one for one.)
+    #[test]
+    fn channels_read_at_different_instants_are_fitted_apart() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let truth = Params { cl: 4.7e-6, sample_delay: 70e-9, vout_skew: -30e-9, ..Params::default() };
+        let exp = Experiment { samples: 800, io: 1.5, ..Experiment::default() };
+        let mut data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
+        let (vout, il) = simulate_outputs(&truth, &data, data.vout[0]).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let (nv, ni) = (Normal::new(0.0, 2e-3).unwrap(), Normal::new(0.0, 10e-3).unwrap());
+        data.vout = vout.iter().map(|v| v + nv.sample(&mut rng)).collect();
+        data.il = Some(il.iter().map(|i| i + ni.sample(&mut rng)).collect());
+        let start = Params { cl: 3e-6, sample_delay: 50e-9, ..Params::default() };
+        let c = fit(&data, &start, &[Free::Cl, Free::SampleDelay, Free::VoutSkew], 600).unwrap();
+        for (name, value) in [("Cl", 4.7e-6), ("sample_delay", 70e-9), ("vout_skew", -30e-9)] {
+            let e = c.fit.estimate(name).unwrap();
+            assert!(e.ci95.0 < value && value < e.ci95.1, "{name}: {value:e} not in {:?}", e.ci95);
+        }
     }
 
     /// On data from the switched plant with a diode (DCM every period at 1 A), the simulated
