@@ -133,11 +133,9 @@ pub fn plant_effects() -> impl Iterator<Item = &'static str> {
     // diode, a dead time or the switches' resistance; alone they change nothing. The plant's
     // readings are exact: a sensor's calibration comes from the harness only, an anti-alias
     // filter from the third generator.
-    std::iter::once("none").chain(
-        gap::EFFECTS
-            .into_iter()
-            .filter(|e| !matches!(*e, "sample_delay" | "sensor_filter" | "diode_resistance" | "switch_node_capacitance" | "switch_node_ring" | "unequal_switches" | "sensor_offset" | "sensor_gain")),
-    )
+    std::iter::once("none").chain(gap::EFFECTS.into_iter().filter(|e| {
+        !matches!(*e, "sample_delay" | "sensor_filter" | "channel_skew" | "diode_resistance" | "switch_node_capacitance" | "switch_node_ring" | "unequal_switches" | "sensor_offset" | "sensor_gain")
+    }))
 }
 
 /// The effects an ngspice dataset may withhold (the netlists' real devices).

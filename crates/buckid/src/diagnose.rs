@@ -225,7 +225,12 @@ fn fitted_values(params: &BTreeMap<String, f64>, ci95: &BTreeMap<String, [f64; 2
                 return format!("sample_duty_share = {v} (an ADC triggered from the PWM: read sample_delay + {v}·(D − ½)·T after each period start)");
             }
             let (scale, unit) = if k.ends_with("_gain_error") { (100.0, "%") } else { (1.0, unit_of(k)) };
-            format!("{k} = {}", with_ci(v * scale, ci95.get(k).map(|c| c.map(|x| x * scale)), unit))
+            let value = format!("{k} = {}", with_ci(v * scale, ci95.get(k).map(|c| c.map(|x| x * scale)), unit));
+            // The channels read apart: which comes first.
+            if k == "vout_skew" {
+                return format!("{value} (vout read {} il)", if *v >= 0.0 { "after" } else { "before" });
+            }
+            value
         })
         .collect()
 }

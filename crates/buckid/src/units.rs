@@ -7,7 +7,7 @@ use estimator::validate::identified;
 pub fn unit_of(name: &str) -> &'static str {
     match name {
         "diode_drop" | "lsb" | "input_noise_rms" | "cap_rated_voltage" | "cl_reference_voltage" | "vout_offset" => "V",
-        "dead_time" | "pulse_width_distortion" | "sample_delay" | "vout_filter" | "il_filter" | "sensor_filter" => "s",
+        "dead_time" | "pulse_width_distortion" | "sample_delay" | "vout_filter" | "il_filter" | "sensor_filter" | "channel_skew" | "vout_skew" => "s",
         "switch_resistance" | "diode_resistance" | "switch_node_damping" | "series_resistance" | "load_esr" | "RL" | "RL_nominal" | "Rc" | "Rc_nominal" => "Ω",
         "esl" | "L" | "L_nominal" => "H",
         "C" | "C_nominal" | "Cl" | "switch_node_capacitance" => "F",

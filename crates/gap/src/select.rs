@@ -26,9 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_IL, SENSOR_FILTER_LATE,
-    SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant, il_misses_materially,
-    il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    Alike, Baseline, CHANNEL_SKEW, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH,
+    SENSOR_FILTER_IL, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant,
+    il_misses_materially, il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -321,7 +321,7 @@ impl Stack {
         // makes too (harness 3030/24: a 3 ns stretch as a fourth step completed a path of
         // stand-ins that had given way to the switches'; 3434/24: judged on the circuit as
         // designed, one changed how a path of stand-ins ended).
-        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "param_drift") || reads_vout(n));
+        let as_designed = self.effects.iter().all(|n| matches!(*n, "sample_delay" | "channel_skew" | "param_drift") || reads_vout(n));
         // One diode per model: a diode buck's drop or DCM is never added on top of the other.
         // No filter on readings shifted by a row: lagging a reading taken at the period's end
         // stands in for one taken within the period, which the instant models (`sample_delay`,
@@ -1115,6 +1115,13 @@ pub(crate) fn forward(
             if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && stack.delay == 0 {
                 extensions.push(stack.extension_of(&SENSOR_FILTER_IL, io_mean));
             }
+            // vout at an instant of its own: beside the one il pins, or with il's.
+            if stack.free.contains(&Free::SampleDelay) && !stack.free.contains(&Free::VoutSkew) && data.il.is_some() {
+                extensions.push(stack.extension_of(&CHANNEL_SKEW, io_mean));
+            }
+            if il_missed && !diode && !stack.free.contains(&Free::SampleDelay) && stack.delay == 0 {
+                extensions.push(stack.extension_of(&CHANNEL_SKEW_LATE, io_mean));
+            }
             let (late, mut rest): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| x.added().iter().any(|f| f.pinned_by_il()) && il_missed);
             if late_pending {
                 rest.clear();
@@ -1123,7 +1130,8 @@ pub(crate) fn forward(
             let gap_power = baseline.floor.map_or(0.0, |f| against_rms.powi(2) - f * f).max(0.0);
             // The late reading alone first; the filter read late only where il shows the instant
             // (the late reading's fit explains il, or the best instant on il alone does) but the
-            // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
+            // late reading is no finding, vout lagging more than il; vout read at an instant of
+            // its own beside it (`CHANNEL_SKEW_LATE`), which moves vout either way. Its fits are the dearest (a
             // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
             // The filter on both channels before it, where il shows a filter rather than an
             // instant (`il_shows_a_filter`), then il's alone where il shows it plainly
@@ -1132,6 +1140,7 @@ pub(crate) fn forward(
             let (delays, filters): (Vec<Extension>, Vec<Extension>) = late.into_iter().partition(|x| x.name == "sample_delay");
             let (il_filters, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.added().contains(&Free::IlFilter));
             let (both, il_alone): (Vec<Extension>, Vec<Extension>) = il_filters.into_iter().partition(|x| x.added().contains(&Free::VoutFilter));
+            let (skews, filters): (Vec<Extension>, Vec<Extension>) = filters.into_iter().partition(|x| x.name == "channel_skew");
             let late_trials = || {
                 let instant = std::cell::OnceCell::new();
                 let il_instant = || *instant.get_or_init(|| il_closed_by_an_instant(&stack.data(data), &stack.params, n_est));
@@ -1147,6 +1156,9 @@ pub(crate) fn forward(
                 if !filters.is_empty() && !t.iter().any(|t| t.0.finding) && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_instant())) {
                     t.extend(filters.iter().filter_map(try_one));
                 }
+                if !t.iter().any(|t| t.0.late_in_il()) {
+                    t.extend(skews.iter().filter_map(try_one));
+                }
                 t
             };
             if gross_miss(against_rms, baseline.floor, baseline.swing).is_some() {
@@ -1157,10 +1169,11 @@ pub(crate) fn forward(
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
-        // A reading's calibration is the explanation of last resort (see `best_material`): never
-        // the first-alone shortcut below, fitted beside the first round's other fits (the most
-        // promising of them), and chosen only where no circuit extension is material.
-        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name));
+        // A reading's calibration is the explanation of last resort (see `best_material`), and so
+        // is vout's own instant beside il's (`CHANNEL_SKEW`): never the first-alone shortcut
+        // below, fitted beside the first round's other fits (the most promising of them), and
+        // chosen only where no circuit extension is material.
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name) || x.added() == [Free::VoutSkew]);
         extensions = circuit;
         let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
         let mut settled = false;
@@ -1267,7 +1280,14 @@ pub(crate) fn forward(
             (fit, cand, extended)
         };
         if !fit.finding {
-            break format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label());
+            // A drift within tolerance, or a reading whose instant il does not bear out (the
+            // filter read late, vout's instant with il's).
+            break if fit.within_tolerance {
+                format!("what is left is best explained by a drift within tolerance ({})", fit.drift_label())
+            } else {
+                let il = fit.il_closed_percent.map_or("it leaves il far off".to_string(), |c| format!("{c:.1} % of its gap closed"));
+                format!("what is left is best explained by {}, which il does not bear out ({il})", fit.label())
+            };
         }
         if !swapped {
             fit.alike = Alike::of(&fit, &rivals, baseline);
