@@ -1156,8 +1156,10 @@ pub(crate) fn forward(
                 if !filters.is_empty() && !t.iter().any(|t| t.0.finding) && (t.iter().any(|t| explains_il(t.0.il_closed_percent)) || explains_il(il_instant())) {
                     t.extend(filters.iter().filter_map(try_one));
                 }
+                // (Only where il bears it out: vout's instant alone, material on vout, is no
+                // step to end a path on.)
                 if !t.iter().any(|t| t.0.late_in_il()) {
-                    t.extend(skews.iter().filter_map(try_one));
+                    t.extend(skews.iter().filter_map(try_one).filter(|t| t.0.finding));
                 }
                 t
             };
