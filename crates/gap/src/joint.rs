@@ -97,11 +97,8 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
     for f in &g.frees {
         f.set(&mut s.params, f.get(nominal));
     }
-    // vout's skew from il's instant goes with it: one instant for both channels.
     if g.frees.contains(&Free::SampleDelay) {
         (s.params.il_offset, s.params.il_gain_error, s.params.sample_duty_share) = (nominal.il_offset, nominal.il_gain_error, nominal.sample_duty_share);
-        s.free.retain(|f| *f != Free::VoutSkew);
-        s.params.vout_skew = nominal.vout_skew;
     }
     // The effects that free no value change the structure: a duty applied late, an ideal diode.
     match g.name {

@@ -26,8 +26,8 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, CHANNEL_SKEW, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH,
-    SENSOR_FILTER_IL, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant,
+    Alike, Baseline, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_IL,
+    SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant,
     il_misses_materially, il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
@@ -1115,10 +1115,7 @@ pub(crate) fn forward(
             if il_missed && !diode && !stack.free.contains(&Free::IlFilter) && stack.delay == 0 {
                 extensions.push(stack.extension_of(&SENSOR_FILTER_IL, io_mean));
             }
-            // vout at an instant of its own: beside the one il pins, or with il's.
-            if stack.free.contains(&Free::SampleDelay) && !stack.free.contains(&Free::VoutSkew) && data.il.is_some() {
-                extensions.push(stack.extension_of(&CHANNEL_SKEW, io_mean));
-            }
+            // vout at an instant of its own, with il's.
             if il_missed && !diode && !stack.free.contains(&Free::SampleDelay) && stack.delay == 0 {
                 extensions.push(stack.extension_of(&CHANNEL_SKEW_LATE, io_mean));
             }
@@ -1171,11 +1168,10 @@ pub(crate) fn forward(
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
         }
-        // A reading's calibration is the explanation of last resort (see `best_material`), and so
-        // is vout's own instant beside il's (`CHANNEL_SKEW`): never the first-alone shortcut
-        // below, fitted beside the first round's other fits (the most promising of them), and
-        // chosen only where no circuit extension is material.
-        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name) || x.added() == [Free::VoutSkew]);
+        // A reading's calibration is the explanation of last resort (see `best_material`): never
+        // the first-alone shortcut below, fitted beside the first round's other fits (the most
+        // promising of them), and chosen only where no circuit extension is material.
+        let (readings, circuit): (Vec<Extension>, Vec<Extension>) = extensions.into_iter().partition(|x| calibrates_reading(x.name));
         extensions = circuit;
         let mut readings: Vec<Extension> = readings.into_iter().take(SCREEN_KEEP).collect();
         let mut settled = false;
