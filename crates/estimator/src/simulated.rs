@@ -255,13 +255,12 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
         // (at the start itself before the period's inputs are set), il's first where both come
         // at once.
         let reads = if at_vout < at_il { [(at_vout, true), (at_il, false)] } else { [(at_il, false), (at_vout, true)] };
+        // (The inputs are set once, at the first step out of the period start.)
         let mut now = 0.0;
-        let mut inputs_set = false;
         for (at, is_vout) in reads {
             if at > now {
-                if !inputs_set {
+                if now == 0.0 {
                     set_inputs(&mut conv, k)?;
-                    inputs_set = true;
                 }
                 conv.step(at - now).map_err(plant)?;
                 now = at;
@@ -272,7 +271,7 @@ fn drive(p: &Params, data: &DataSet, start: impl Into<Start>, mut at_sample: imp
                 il_reads.push(conv.il_read());
             }
         }
-        if !inputs_set {
+        if now == 0.0 {
             set_inputs(&mut conv, k)?;
         }
         conv.step(period - now).map_err(plant)?;

@@ -49,11 +49,14 @@ pub(crate) fn calibrates_reading(name: &str) -> bool {
 
 /// Whether the effect `name` shows in CCM mostly as a level of `vout`: the reading's calibration
 /// ([`calibrates_reading`]), or a gate drive's pulse-width distortion (`vin·δ/T`), which any
-/// unmodelled drop or drift makes in part. Such an effect is named last
-/// ([`EffectFit::last_resort`]) and never starts a rival path (see `select`); a reading's
-/// calibration is judged on the circuit as designed, a stretched pulse is a first step only.
+/// unmodelled drop or drift makes in part; or vout's own instant (`channel_skew`), vout's shape
+/// at another instant, which a load ESR or an ESL makes too (third-generator boards read on one
+/// instant took vout 262 ns after il for an ESL and a filter, and 583 ns after it for a 4.35 mΩ
+/// load ESR). Such an effect is named last ([`EffectFit::last_resort`]) and never starts a rival
+/// path (see `select`); a reading's calibration is judged on the circuit as designed, a
+/// stretched pulse is a first step only.
 pub(crate) fn makes_a_level(name: &str) -> bool {
-    calibrates_reading(name) || name == "pulse_width_distortion"
+    calibrates_reading(name) || matches!(name, "pulse_width_distortion" | "channel_skew")
 }
 
 /// Whether the effect `name`'s form approximates a device's curve or edge rather than being the
@@ -800,12 +803,9 @@ impl EffectFit {
     }
 
     /// A level of `vout` that anything else could make ([`makes_a_level`]): the reading's
-    /// calibration, or a stretched pulse; or vout's own instant ([`CHANNEL_SKEW_LATE`]),
-    /// vout's shape at another instant, which a load ESR or an ESL makes too (third-generator
-    /// boards read on one instant took vout 262 ns after il for an ESL and a filter, and 583 ns
-    /// after it for a 4.35 mΩ load ESR).
+    /// calibration, a stretched pulse, or vout's own instant.
     pub(crate) fn makes_a_level(&self) -> bool {
-        makes_a_level(self.name) || self.name == CHANNEL_SKEW_LATE.name
+        makes_a_level(self.name)
     }
 
     /// Whether `simpler` is a special case of it: an inductor's saturation whose knee lies below
@@ -819,7 +819,7 @@ impl EffectFit {
     /// level the circuit makes that anything else could ([`makes_a_level`]), unless it explains
     /// what the model it extends leaves, down to [`EXPLAINS_ALL`] of it.
     pub(crate) fn last_resort(&self) -> bool {
-        (reads_vout(self.name) || self.makes_a_level()) && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
+        (reads_vout(self.name) || makes_a_level(self.name)) && self.closed_of_remaining.is_none_or(|c| c < EXPLAINS_ALL)
     }
 
     /// A late reading the inductor current shows by itself (whatever it does on `vout`: where

@@ -1127,9 +1127,10 @@ pub(crate) fn forward(
             let gap_power = baseline.floor.map_or(0.0, |f| against_rms.powi(2) - f * f).max(0.0);
             // The late reading alone first; the filter read late only where il shows the instant
             // (the late reading's fit explains il, or the best instant on il alone does) but the
-            // late reading is no finding, vout lagging more than il; vout read at an instant of
-            // its own beside it (`CHANNEL_SKEW_LATE`), which moves vout either way. Its fits are the dearest (a
+            // late reading is no finding, vout lagging more than il. Its fits are the dearest (a
             // filtered simulation, the instant pinned on il); the screen on il is 30 simulations.
+            // vout read at an instant of its own with il's (`CHANNEL_SKEW_LATE`), which moves vout
+            // either way, wherever no late reading il shows is taken.
             // The filter on both channels before it, where il shows a filter rather than an
             // instant (`il_shows_a_filter`), then il's alone where il shows it plainly
             // (`IL_ALONE_EXPLAINED`) and the filter on both channels is no finding; the
