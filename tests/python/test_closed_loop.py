@@ -95,6 +95,39 @@ def test_the_adc_reads_at_its_instant_within_the_period(fmu_dir, model_descripti
     assert any("adc_delay" in m for m in messages("adc-late")), messages("adc-late")
 
 
+def test_the_adc_reads_each_channel_at_its_own_instant(fmu_dir, model_description):
+    """`adc_vout_skew`: the FMU's ADC converts il at `adc_delay` and vout `adc_vout_skew` later
+    (or earlier), so `il_adc` and `vout_adc` hold what fmpy reads from the instantaneous outputs
+    at each channel's own instant (to 1e-12), in either order; a vout instant outside the period
+    is an error that names the skew."""
+    md = model_description
+    refs = [vr(md, n) for n in ("vout", "il", "vout_adc", "il_adc")]
+    duty = prbs_duty(120)
+    for il_at, skew in ((T / 8, T / 2), (T / 2, -T / 4)):
+        vout_at = il_at + skew
+        first, second = sorted((il_at, vout_at))
+        with open_slave(fmu_dir, md, f"skew-{skew}", start={"mode": SWITCHED, "Cl": 4.7e-6, "adc_delay": il_at, "adc_vout_skew": skew}) as fmu:
+            seen, readings, moved = [], [], []
+            for k, d in enumerate(duty):
+                fmu.setReal([vr(md, "duty")], [float(d)])
+                fmu.doStep(k * T, first)
+                at_first = fmu.getReal(refs)[:2]
+                fmu.doStep(k * T + first, second - first)
+                at_second = fmu.getReal(refs)[:2]
+                fmu.doStep(k * T + second, T - second)
+                readings.append(fmu.getReal(refs)[2:])
+                vout_read, il_read = (at_first, at_second) if vout_at < il_at else (at_second, at_first)
+                seen.append((vout_read[0], il_read[1]))
+                moved.append(abs(at_second[0] - at_first[0]))
+        assert np.abs(np.array(readings) - np.array(seen)).max() <= 1e-12, (il_at, skew)
+        # vout moves between the two instants by far more than that.
+        assert min(moved) > 1e-4, (il_at, skew)
+    with open_slave(fmu_dir, md, "skew-out", start={"mode": SWITCHED, "adc_delay": T / 4, "adc_vout_skew": -T / 2}) as fmu:
+        with pytest.raises(Exception):
+            fmu.doStep(0.0, T)
+    assert any("adc_vout_skew" in m for m in messages("skew-out")), messages("skew-out")
+
+
 def test_the_adc_reads_each_channel_through_its_own_filter(fmu_dir, model_description):
     """`adc_filter` and `adc_il_filter`: the ADC's vout channel reads through an RC low-pass of
     tau and its il channel through one of tau/2, so after each period `vout_adc` and `il_adc`

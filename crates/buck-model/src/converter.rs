@@ -57,7 +57,8 @@ pub struct Outputs {
     pub il_avg: f64,
     /// Duty that drove the switch in the last latched period.
     pub duty_applied: f64,
-    /// The ADC's latest reading of `vout` (at the period start, or `adc_delay` into the period) [V].
+    /// The ADC's latest reading of `vout` (at the period start, or `adc_delay + adc_vout_skew`
+    /// into the period) [V].
     pub vout_adc: f64,
     /// The ADC's latest reading of `il` (at the period start, or `adc_delay` into the period) [A].
     pub il_adc: f64,
@@ -221,8 +222,9 @@ pub struct Converter {
     sat_region: i8,
     /// The next piece starts a new period and must latch the duty first.
     at_period_start: bool,
-    /// The ADC reads later in this period (`adc_delay`, switched mode), not yet done.
-    adc_pending: bool,
+    /// The ADC reads `[vout, il]` later in this period (`adc_delay`, `adc_vout_skew`, switched
+    /// mode), not yet done.
+    adc_pending: [bool; 2],
     /// Averages `[il, vc, vcl, ic]` over the last completed period.
     last_average: Vector4<f64>,
     /// Average load current over the last completed period [A].
@@ -265,7 +267,7 @@ impl Converter {
             at_edge: true,
             sat_region: 0,
             at_period_start: true,
-            adc_pending: false,
+            adc_pending: [false; 2],
             last_average: Vector4::zeros(),
             last_io_average: 0.0,
             digital: Digital::default(),
@@ -472,6 +474,7 @@ impl Converter {
             VarId::AdcIfs => d.adc_ifs,
             VarId::AdcNoise => d.adc_noise,
             VarId::AdcDelay => d.adc_delay,
+            VarId::AdcVoutSkew => d.adc_vout_skew,
             VarId::AdcFilter => d.adc_filter,
             VarId::AdcIlFilter => d.adc_il_filter,
             VarId::NoiseSeed => d.noise_seed as f64,
@@ -543,6 +546,7 @@ impl Converter {
                     VarId::AdcIfs => d.adc_ifs = value,
                     VarId::AdcNoise => d.adc_noise = value,
                     VarId::AdcDelay => d.adc_delay = value,
+                    VarId::AdcVoutSkew => d.adc_vout_skew = value,
                     VarId::AdcFilter => d.adc_filter = value,
                     VarId::AdcIlFilter => d.adc_il_filter = value,
                     _ => return Err(ModelError::NotSettable { name: var.name, when: "at all: it is an output" }),
@@ -601,6 +605,12 @@ impl Converter {
         if self.digital.adc_delay >= period {
             return Err(ModelError::OutOfRange { name: "adc_delay", value: self.digital.adc_delay, range: format!("below the switching period 1/fs = {period:e} s") });
         }
+        let vout_at = self.digital.adc_delay + self.digital.adc_vout_skew;
+        if !(0.0..period).contains(&vout_at) {
+            let range = format!("such that vout is read within the period: adc_delay + adc_vout_skew in [0, 1/fs = {period:e} s), with adc_delay = {:e} s", self.digital.adc_delay);
+            return Err(ModelError::OutOfRange { name: "adc_vout_skew", value: self.digital.adc_vout_skew, range });
+        }
+        let instants = self.adc_instants();
         let snap = SNAP * period;
         let mut remaining = h;
         loop {
@@ -611,16 +621,17 @@ impl Converter {
                 self.cl_now = self.params.cl_for_period(self.x[2], self.vcl_last_start);
                 self.vcl_last_start = Some(self.x[2]);
                 self.at_period_start = false;
-                self.adc_pending = self.adc_reads_within_period();
+                self.adc_pending = instants.map(|t| t > 0.0);
             }
             if self.at_edge {
                 self.slew = self.slew_at_edge(period);
                 self.at_edge = false;
             }
             let (gate, edge) = self.gate(period);
-            // The ADC's reading within the period, where it comes before the next edge.
-            let reading = self.adc_pending && self.digital.adc_delay < edge;
-            let event = if reading { self.digital.adc_delay } else { edge };
+            // The ADC's next reading within the period, where it comes before the next edge.
+            let next_read = (0..2).filter(|&c| self.adc_pending[c]).map(|c| instants[c]).fold(f64::INFINITY, f64::min);
+            let reading = next_read < edge;
+            let event = if reading { next_read } else { edge };
             let to_event = event - self.phase;
             if remaining + snap < to_event {
                 // The step ends before the next event: advance exactly, however short.
@@ -632,8 +643,15 @@ impl Converter {
             remaining -= to_event;
             self.phase = event;
             if reading {
-                self.adc_pending = false;
-                self.digital.sample(self.vout(), self.x[0], self.period_index);
+                // (Both channels at once where they read at one instant.)
+                if self.adc_pending[0] && instants[0] == event {
+                    self.adc_pending[0] = false;
+                    self.digital.sample_vout(self.vout(), self.period_index);
+                }
+                if self.adc_pending[1] && instants[1] == event {
+                    self.adc_pending[1] = false;
+                    self.digital.sample_il(self.x[0]);
+                }
             } else {
                 self.at_edge = true;
             }
@@ -646,8 +664,11 @@ impl Converter {
                 self.at_period_start = true;
                 self.pwm_high_before = self.params.effective_duty(self.latched_duty) >= 1.0;
                 self.period_index += 1;
-                if !self.adc_reads_within_period() {
-                    self.digital.sample(self.vout(), self.x[0], self.period_index);
+                if instants[0] == 0.0 {
+                    self.digital.sample_vout(self.vout(), self.period_index);
+                }
+                if instants[1] == 0.0 {
+                    self.digital.sample_il(self.x[0]);
                 }
             }
             // What is left after an event within the snap tolerance is the master's rounding
@@ -680,9 +701,13 @@ impl Converter {
         }
     }
 
-    /// Whether the ADC reads `adc_delay` into each period (switched mode), else at its start.
-    fn adc_reads_within_period(&self) -> bool {
-        self.digital.adc_delay > 0.0 && self.mode == Mode::Switched
+    /// The instants `[vout, il]` into each period at which the ADC reads each channel: `il` at
+    /// `adc_delay`, `vout` `adc_vout_skew` after it (switched mode); 0 is the period start.
+    fn adc_instants(&self) -> [f64; 2] {
+        match self.mode {
+            Mode::Switched => [self.digital.adc_delay + self.digital.adc_vout_skew, self.digital.adc_delay],
+            Mode::Averaged => [0.0; 2],
+        }
     }
 
     /// The gate in force at the current phase and the end of its interval (the next fixed

@@ -2,7 +2,9 @@
 //! the optional voltage-mode PID controller, the delay between a duty command and the switch,
 //! and the DPWM register's resolution.
 //!
-//! Timeline of period `k`: at `k·T` the ADC samples the state; at the latch (the start of the
+//! Timeline of period `k`: at `k·T` the ADC samples the state (in switched mode `il` at
+//! `adc_delay` into the period and `vout` `adc_vout_skew` after it, where they are set); at the
+//! latch (the start of the
 //! first step that runs period `k`) the duty command is formed — the `duty` input in open loop,
 //! `PID(vref − vout_adc) + duty_dither` in closed loop — quantized to the DPWM resolution, and
 //! pushed into the delay line; the command from `delay` periods earlier drives the switch.
@@ -48,6 +50,10 @@ pub struct Digital {
     /// Instant of the reading after each period start [s] (0: at the period start, the
     /// previous period's end).
     pub adc_delay: f64,
+    /// How long after `il` the ADC converts `vout` [s], signed (a multiplexed ADC converts its
+    /// channels one after the other): `il` is read at `adc_delay`, `vout` at
+    /// `adc_delay + adc_vout_skew`, both within the period (0: one instant).
+    pub adc_vout_skew: f64,
     /// Time constant of the RC anti-alias filter in front of the `vout` channel [s] (0: none).
     pub adc_filter: f64,
     /// Time constant of the first-order low-pass in front of the `il` channel [s] (0: none): a
@@ -78,6 +84,7 @@ impl Default for Digital {
             adc_noise: 0.0,
             noise_seed: 1,
             adc_delay: 0.0,
+            adc_vout_skew: 0.0,
             adc_filter: 0.0,
             adc_il_filter: 0.0,
             dpwm_bits: 0,
@@ -186,9 +193,20 @@ impl Digital {
     /// The ADC conversion of period `k` (its noise a function of `k`) of `vout` and `il`, each
     /// through its channel's filter where there is one.
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
-        let (vout, il) = (self.vout_channel(vout), self.il_channel(il));
+        self.sample_vout(vout, k);
+        self.sample_il(il);
+    }
+
+    /// The conversion of period `k` of the `vout` channel alone (see [`Digital::sample`]).
+    pub fn sample_vout(&mut self, vout: f64, k: u64) {
+        let vout = self.vout_channel(vout);
         let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
-        self.reading = [quantize(noisy, 0.0, self.adc_vfs, self.adc_bits), quantize(il, -self.adc_ifs, self.adc_ifs, self.adc_bits)];
+        self.reading[0] = quantize(noisy, 0.0, self.adc_vfs, self.adc_bits);
+    }
+
+    /// The conversion of the `il` channel alone (see [`Digital::sample`]).
+    pub fn sample_il(&mut self, il: f64) {
+        self.reading[1] = quantize(self.il_channel(il), -self.adc_ifs, self.adc_ifs, self.adc_bits);
     }
 
     /// The latest ADC reading `(vout, il)`.

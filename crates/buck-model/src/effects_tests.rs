@@ -1041,6 +1041,47 @@ fn the_adc_reads_at_its_instant_within_the_period() {
     assert!(err.contains("adc_delay"), "{err}");
 }
 
+/// `adc_vout_skew`: the ADC converts `il` at `adc_delay` and `vout` that much later (or
+/// earlier), so after a period `il_adc` holds `il` at its instant and `vout_adc` `vout` at its
+/// own (bit for bit: the host's steps end at the two instants), in either order and with `il`
+/// read at the period start (the next one's, when the period ends); `vout` moves between the instants by more than any rounding. A
+/// `vout` instant outside the period is an error naming the skew.
+#[test]
+fn the_adc_reads_each_channel_at_its_own_instant() {
+    for (il_at, skew) in [(T / 8.0, T / 2.0), (T / 2.0, -T / 4.0), (0.0, T / 3.0)] {
+        let vout_at = il_at + skew;
+        let mut conv = converter(Params { cl: 4.7e-6, ..Params::default() }, Mode::Switched, 0.5, 1.0);
+        conv.set(VarId::AdcDelay, il_at).unwrap();
+        conv.set(VarId::AdcVoutSkew, skew).unwrap();
+        settle(&mut conv, 20);
+        for k in 0..6 {
+            conv.set(VarId::Duty, if k % 2 == 0 { 0.4 } else { 0.6 }).unwrap();
+            let (first, second) = (il_at.min(vout_at), il_at.max(vout_at));
+            let mut seen = Vec::new();
+            for (from, to) in [(0.0, first), (first, second)] {
+                if to > from {
+                    conv.step(to - from).unwrap();
+                }
+                seen.push((conv.get_real(VarId::Vout), conv.get_real(VarId::Il)));
+            }
+            conv.step(T - second).unwrap();
+            let (at_first, at_second) = (seen[0], seen[1]);
+            let (vout, mut il) = if vout_at < il_at { (at_first.0, at_second.1) } else { (at_second.0, at_first.1) };
+            if il_at == 0.0 {
+                // Read at the period start: the next one's, where the period ends.
+                il = conv.get_real(VarId::Il);
+            }
+            assert_eq!((conv.get_real(VarId::VoutAdc), conv.get_real(VarId::IlAdc)), (vout, il), "il at {il_at:e} s, vout {skew:e} s after");
+            assert!((at_first.0 - at_second.0).abs() > 1e-4, "vout {} V at both instants", at_first.0);
+        }
+    }
+    let mut conv = converter(Params::default(), Mode::Switched, 0.5, 1.0);
+    conv.set(VarId::AdcDelay, T / 4.0).unwrap();
+    conv.set(VarId::AdcVoutSkew, -T / 2.0).unwrap();
+    let err = conv.step(T).unwrap_err().to_string();
+    assert!(err.contains("adc_vout_skew") && err.contains("within the period"), "{err}");
+}
+
 /// The ADC's channels read through their own first-order low-passes: `vout_adc` through the
 /// anti-alias filter (`adc_filter`, τ) and `il_adc` through the sense chain's (`adc_il_filter`,
 /// τ/2, or none). Each matches its filter integrated on 4000 steps a period (exact for a line

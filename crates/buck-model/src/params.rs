@@ -128,7 +128,8 @@ pub struct Params {
     /// scope's current probe is not deskewed against its voltage probe. `il` is read at the
     /// sampling instant ([`Params::sample_instant`]), `vout` this much later (earlier where
     /// negative); both must lie within the period. 0 (the default): one instant. Not a circuit
-    /// value and not an FMU parameter (`channel_skew` effect).
+    /// value (`channel_skew` effect); the FMU's ADC reads so with its `adc_vout_skew`
+    /// ([`crate::digital::Digital::adc_vout_skew`]).
     pub vout_skew: f64,
     /// Time constant of a first-order low-pass the `vout` reading passes through before it is
     /// sampled [s]: the RC anti-alias filter in front of a controller's ADC, commonly with its

@@ -64,6 +64,7 @@ pub enum VarId {
     DiodeEmission,
     PulseWidthDistortion,
     AdcIlFilter,
+    AdcVoutSkew,
 }
 
 /// FMI causality.
@@ -224,6 +225,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::DiodeEmission, "diode_emission", Parameter, "V", (0.0, 0.5), Some(0.0), "Emission voltage n Vt of the diodes' exponential (Shockley) law: a conducting diode drops diode_emission ln(1 + |il|/Is) + diode_resistance |il|, Is set so that the drop at 1 A is diode_drop + diode_resistance 1 A (0 = the straight line diode_drop + diode_resistance |il|; switched mode only)"),
     real(VarId::PulseWidthDistortion, "pulse_width_distortion", Parameter, "s", (-1e-5, 1e-5), Some(0.0), "The high side's on-time beyond the PWM's duty T, signed: the gate drive's turn-off delay minus its turn-on delay; the on-time held within [0, T], none made at duty 0 (both modes)"),
     real(VarId::AdcIlFilter, "adc_il_filter", Parameter, "s", (0.0, 1.0), Some(0.0), "Time constant of the first-order low-pass in front of the ADC's il channel (a current-sense amplifier's bandwidth or the channel's anti-alias filter): il_adc reads il through it (0 = no filter)"),
+    real(VarId::AdcVoutSkew, "adc_vout_skew", Parameter, "s", (-1.0, 1.0), Some(0.0), "How long after il the ADC converts vout, signed (a multiplexed ADC converts its channels one after the other): il_adc reads il at adc_delay, vout_adc and the controller read vout at adc_delay + adc_vout_skew, which must lie within the period (0 = one instant; switched mode only)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.

@@ -732,6 +732,23 @@ fn filters_on_both_channels_of_our_fmus_adc_are_named_with_their_time_constants(
     }
 }
 
+/// Our FMU's ADC converting il 40 ns into each period and vout 600 ns after it
+/// (`adc_vout_skew`, a multiplexed ADC): `diagnose`, told nothing, names the two instants
+/// (`channel_skew`), each within 2 %, and Cl's interval holds the FMU's (il read noise-free: with
+/// 10 mA of noise on il the late reading takes il's instant first and an ESL stands in for vout's,
+/// see the README's `channel_skew`).
+#[test]
+fn a_multiplexed_adc_in_our_fmu_is_named_with_its_channels_instants() {
+    let (il_at, skew) = (40e-9, 600e-9);
+    let dx = diagnose_our_fmus_adc(&[&format!("adc_delay={il_at:e}"), &format!("adc_vout_skew={skew:e}")], true);
+    assert_eq!(selected_names(&dx), ["channel_skew"], "{}", dx["selection_ended"]);
+    for (name, truth) in [("sample_delay", il_at), ("vout_skew", skew)] {
+        let found = selected_param(&dx, name).as_f64().unwrap();
+        assert!((found / truth - 1.0).abs() < 0.02, "{name} {found:e} for the ADC's {truth:e}");
+    }
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
+}
+
 /// Asserts that each time constant `name` the diagnosis `dx` selected lies within 3 % of the
 /// ADC's `want`.
 fn assert_time_constants(dx: &serde_json::Value, filters: &[(&str, f64)]) {
