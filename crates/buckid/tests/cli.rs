@@ -644,6 +644,12 @@ fn simulate_drives_our_fmu_with_stepped_duty_to_its_dc_points() {
 /// told nothing: the diagnosis. A period's applied duty arrives at its end, and so do its
 /// readings where the ADC reads `within_period` (`adc_delay`), else at its start.
 fn diagnose_our_fmus_adc(adc: &[&str], within_period: bool) -> serde_json::Value {
+    diagnose_our_fmus_adc_with_il_noise(adc, within_period, 0.0)
+}
+
+/// [`diagnose_our_fmus_adc`] with white noise of `il_noise` [A] RMS added to the `il` readings
+/// (the FMU's ADC has noise on vout only; a probe's or a sense amplifier's is never zero).
+fn diagnose_our_fmus_adc_with_il_noise(adc: &[&str], within_period: bool, il_noise: f64) -> serde_json::Value {
     let (period, warmup, n) = (1.0 / 330e3, 200, 3001);
     let dir = tempfile::tempdir().unwrap();
     let duties = estimator::experiment::Prbs::default().duties(warmup + n + 1).unwrap();
@@ -670,7 +676,7 @@ fn diagnose_our_fmus_adc(adc: &[&str], within_period: bool) -> serde_json::Value
         vin: vec![12.0; n],
         io: vec![1.0; n],
         vout: column(2, readings_at),
-        il: Some(column(3, readings_at)),
+        il: Some(column(3, readings_at).into_iter().zip(white_noise(il_noise, n, 7)).map(|(i, e)| i + e).collect()),
         meta,
         ..estimator::data::DataSet::default()
     };
@@ -732,6 +738,15 @@ fn filters_on_both_channels_of_our_fmus_adc_are_named_with_their_time_constants(
     }
 }
 
+/// `n` samples of white Gaussian noise of standard deviation `sigma`, seeded.
+fn white_noise(sigma: f64, n: usize, seed: u64) -> Vec<f64> {
+    use rand::SeedableRng;
+    use rand_distr::Distribution;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let normal = rand_distr::Normal::new(0.0, sigma.max(f64::MIN_POSITIVE)).unwrap();
+    (0..n).map(|_| if sigma > 0.0 { normal.sample(&mut rng) } else { 0.0 }).collect()
+}
+
 /// Our FMU's ADC converting il 40 ns into each period and vout 600 ns after it
 /// (`adc_vout_skew`, a multiplexed ADC): `diagnose`, told nothing, names the two instants
 /// (`channel_skew`), each within 2 %, and Cl's interval holds the FMU's (il read noise-free: with
@@ -747,6 +762,34 @@ fn a_multiplexed_adc_in_our_fmu_is_named_with_its_channels_instants() {
         assert!((found / truth - 1.0).abs() < 0.02, "{name} {found:e} for the ADC's {truth:e}");
     }
     assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
+}
+
+/// Our FMU's ADC as above, il read with 10 mA of noise: il's late reading is taken first, on il's
+/// word, and the path goes on to what vout read apart from il looks like. vout 300 ns after il:
+/// a ceramic's bias and an ESL (2.92 mV held out, Cl 3.57 µF, its interval widened to [3.28,
+/// 4.26] µF); vout's own instant alone explains vout better (2.02 mV) with fewer effects and is
+/// taken instead: `channel_skew`, each instant within 3 %, Cl's interval holds the FMU's. vout
+/// 60 ns after il: an ESL and a load ESR, alike to vout's own instant (2.07 against 2.03 mV),
+/// which puts Cl at 4.69 µF where the path had 4.38 [4.31, 4.52]: the interval spans both.
+#[test]
+fn vouts_own_instant_in_our_fmu_is_weighed_against_the_path_il_read_noisy() {
+    let il_at = 40e-9;
+    let settings = |skew: f64| [format!("adc_delay={il_at:e}"), format!("adc_vout_skew={skew:e}")];
+    let s = settings(300e-9);
+    let dx = diagnose_our_fmus_adc_with_il_noise(&[&s[0], &s[1]], true, 10e-3);
+    assert_eq!(selected_names(&dx), ["channel_skew"], "{}", dx["selection_ended"]);
+    assert!(dx["selection_ended"].as_str().unwrap().contains("taken instead of the path"), "{}", dx["selection_ended"]);
+    for (name, truth) in [("sample_delay", il_at), ("vout_skew", 300e-9)] {
+        let found = selected_param(&dx, name).as_f64().unwrap();
+        assert!((found / truth - 1.0).abs() < 0.03, "{name} {found:e} for the ADC's {truth:e}");
+    }
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
+    let s = settings(60e-9);
+    let dx = diagnose_our_fmus_adc_with_il_noise(&[&s[0], &s[1]], true, 10e-3);
+    let apart = &dx["selected"].as_array().unwrap().last().unwrap()["cl"]["read_late"];
+    assert_eq!(apart["instant"], "vout_skew", "{}", dx["selected"]);
+    assert!((apart["value"].as_f64().unwrap() / 60e-9 - 1.0).abs() < 0.1, "{apart}");
+    assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.15);
 }
 
 /// Asserts that each time constant `name` the diagnosis `dx` selected lies within 3 % of the

@@ -142,8 +142,9 @@ pub struct ClMove {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub twin: Option<Twin>,
     /// For a final model read at the period start: the same model with the reading's instant
-    /// fitted, where that instant is significant and Cl lies outside the interval
-    /// ([`ReadLate`]). The interval spans both.
+    /// fitted, where that instant is significant and Cl lies outside the interval; for one read
+    /// late on both channels, with vout's own instant fitted ([`ReadLate`]). The interval spans
+    /// both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub read_late: Option<ReadLate>,
     /// For a final model whose inductor current the measured one matches only through a probe
@@ -186,16 +187,32 @@ impl Twin {
 /// at 1 %, better held out, converged) and Cl lies outside the interval, the interval spans
 /// both. A harness buck with 0.70 µF of load, read 42 ns late, ended at the floor read on time
 /// with 0.542 [0.435, 0.555] µF; read at its fitted 46 ns, 0.78 µF.
+///
+/// A final model read late on both channels (the instant il pins) is refitted likewise with
+/// vout's own instant (`vout_skew`): a multiplexed ADC converts vout a fraction of the period
+/// after il, and with the output capacitor's ESR dominating its ripple, vout read `s` later is
+/// nearly vout with an ESL of `s·Rc` (or a load ESR) in the model. Where vout's instant
+/// displaces such an effect, the model with it in that effect's place is fitted; where it
+/// explains vout as well (the final model closes no material share of what it leaves), the data
+/// does not tell the two apart and the interval spans both. Our FMU's ADC reading il at 40 ns
+/// and vout 60 ns after it, il with 10 mA of noise, ended on an ESL and a load ESR with Cl
+/// 4.38 [4.31, 4.52] µF for 4.7.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ReadLate {
-    /// The reading's fitted instant after each period start [s].
-    pub sample_delay: f64,
+    /// The instant fitted: `sample_delay` (the model read at the period start) or `vout_skew`
+    /// (vout read apart from il, whose instant the model holds).
+    pub instant: &'static str,
+    /// Its fitted value [s]: after each period start, or after il's reading.
+    pub value: f64,
     /// Its 95 % confidence interval [s].
-    pub sample_delay_ci95: [f64; 2],
-    /// The likelihood-ratio statistic of the instant against the model read at the period start.
-    pub lr_statistic: f64,
-    /// The statistic's limit at 1 % (χ² with one degree of freedom).
-    pub lr_limit: f64,
+    pub value_ci95: [f64; 2],
+    /// The likelihood-ratio statistic of the instant against the final model, and its limit at
+    /// 1 % (χ² with one degree of freedom); `None` where it takes an effect's place.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lr: Option<[f64; 2]>,
+    /// The final model's effects it takes the place of, where it is fitted instead of them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub in_place_of: Option<InPlaceOf>,
     /// Its held-out residual [V RMS].
     pub rms_after: f64,
     /// It closes a material share of the gap the final model leaves ([`MATERIAL_SHARE`]; the
@@ -205,6 +222,16 @@ pub struct ReadLate {
     pub cl: f64,
     /// Cl's 95 % confidence interval so read [F].
     pub ci95: [f64; 2],
+}
+
+/// The effects of the final model a [`ReadLate`] model is fitted instead of.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InPlaceOf {
+    /// Their labels ([`EffectFit::label`]), joined by ` + `.
+    pub effects: String,
+    /// It explains vout better than they do: it closes a material share ([`MATERIAL_SHARE`]) of
+    /// the gap the final model leaves (else neither closes one of the other's: alike).
+    pub better: bool,
 }
 
 impl ReadLate {
@@ -217,14 +244,22 @@ impl ReadLate {
 impl std::fmt::Display for ReadLate {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let [lo, hi] = self.ci95.map(|v| v * 1e6);
-        let [dlo, dhi] = self.sample_delay_ci95.map(|v| v * 1e9);
+        let [dlo, dhi] = self.value_ci95.map(|v| v * 1e9);
+        let (read, whose) = if self.instant == Free::VoutSkew.name() { ("vout read", "after il") } else { ("read", "after each period start") };
+        let why = match (&self.in_place_of, self.lr) {
+            (Some(them), _) => format!("in place of {}, {}", them.effects, if them.better { "explaining vout better" } else { "alike" }),
+            (None, Some([lr, limit])) => format!("significant, LR {lr:.1} > {limit:.1}, {}", if self.material { "and material" } else { "though not material" }),
+            (None, None) => "significant".to_string(),
+        };
+        let moves = match &self.in_place_of {
+            Some(them) if them.better => "it explains vout better with fewer effects",
+            Some(_) => "the data does not tell them apart",
+            None => "the reading's instant moves Cl",
+        };
         write!(
             f,
-            "read {:.1} ns after each period start (CI95 {dlo:.1} … {dhi:.1} ns; significant, LR {:.1} > {:.1}, {}: {:.3} mV held out), the model has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): the reading's instant moves Cl, and the interval spans both",
-            self.sample_delay * 1e9,
-            self.lr_statistic,
-            self.lr_limit,
-            if self.material { "and material" } else { "though not material" },
+            "{read} {:.1} ns {whose} (CI95 {dlo:.1} … {dhi:.1} ns; {why}: {:.3} mV held out), the model has Cl {:.4} µF (CI95 {lo:.4} … {hi:.4} µF): {moves}, and the interval spans both",
+            self.value * 1e9,
             self.rms_after * 1e3,
             self.cl * 1e6
         )
@@ -1342,7 +1377,7 @@ pub(crate) const SENSOR_FILTER_IL: SimulatedEffect = SimulatedEffect { name: "se
 /// vout's skew from il's instant that [`CHANNEL_SKEW_LATE`] starts from at each of its instants,
 /// in periods: none, a tenth and three tenths either way (a start whose vout instant leaves the
 /// period is refused).
-const SKEW_STARTS: [f64; 5] = [0.0, -0.1, 0.1, -0.3, 0.3];
+pub(crate) const SKEW_STARTS: [f64; 5] = [0.0, -0.1, 0.1, -0.3, 0.3];
 
 /// `channel_skew` with both instants free, where the model reads on time and misses il, and the
 /// late reading does not explain il (vout's instant pulling the one instant off il's): from each
@@ -1856,12 +1891,28 @@ pub(crate) mod tests {
     /// says the instant, its test and both Cl; an interval not identified stays so.
     #[test]
     fn a_significant_reading_instant_widens_cls_interval_to_its_own() {
-        let late =
-            ReadLate { sample_delay: 46.5e-9, sample_delay_ci95: [44.2e-9, 49.0e-9], lr_statistic: 12.7, lr_limit: 6.6, rms_after: 3.94e-3, material: false, cl: 0.78e-6, ci95: [0.763e-6, 0.797e-6] };
+        let late = ReadLate {
+            instant: "sample_delay",
+            value: 46.5e-9,
+            value_ci95: [44.2e-9, 49.0e-9],
+            lr: Some([12.7, 6.6]),
+            in_place_of: None,
+            rms_after: 3.94e-3,
+            material: false,
+            cl: 0.78e-6,
+            ci95: [0.763e-6, 0.797e-6],
+        };
         assert_eq!(late.spanned([0.435e-6, 0.555e-6]), [0.435e-6, 0.797e-6]);
         assert_eq!(late.spanned([0.0, f64::INFINITY]), [0.0, f64::INFINITY]);
         let said = late.to_string();
-        assert!(said.contains("46.5 ns") && said.contains("LR 12.7 > 6.6, though not material") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
+        assert!(said.contains("46.5 ns after each period start") && said.contains("LR 12.7 > 6.6, though not material") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
+        // vout's own instant in an ESL's place: said as such, without a test it did not take.
+        let in_place_of = |better| Some(InPlaceOf { effects: "esl + load_esr".to_string(), better });
+        let skewed = ReadLate { instant: "vout_skew", value: 61.0e-9, lr: None, in_place_of: in_place_of(false), ..late.clone() };
+        let said = skewed.to_string();
+        assert!(said.contains("vout read 61.0 ns after il") && said.contains("in place of esl + load_esr, alike") && !said.contains("LR") && said.contains("does not tell them apart"), "{said}");
+        let said = ReadLate { in_place_of: in_place_of(true), ..skewed }.to_string();
+        assert!(said.contains("in place of esl + load_esr, explaining vout better") && said.contains("fewer effects"), "{said}");
     }
 
     /// Cl's interval spans a twin model's where it is identified; one not identified stays so

@@ -32,7 +32,7 @@ use std::collections::BTreeMap;
 pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
-    Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested,
+    Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, InPlaceOf, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested,
     RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
@@ -568,6 +568,22 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         Some(twin)
     });
+    // A path read late on both channels beside other effects: vout read apart from il alone,
+    // where it explains vout as well (Cl's interval spans its, below) or better, with fewer
+    // effects (taken instead, when it is a finding as a first step; see `select::read_apart`).
+    let mut read_apart = select::read_apart(data, nominal, &selected, &base, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+    let (mut twin, mut nominal_twin) = (twin, nominal_twin);
+    if let Some((read, fit)) = read_apart.take_if(|(read, fit)| read.in_place_of.as_ref().is_some_and(|p| p.better) && fit.finding) {
+        selection_ended = format!(
+            "vout read {:.1} ns after il alone ({}), taken instead of the path, which ended with {:.3} mV held out against its {:.3} ({selection_ended})",
+            read.value * 1e9,
+            fit.name,
+            selected.last().map_or(f64::NAN, |e| e.rms_after) * 1e3,
+            fit.rms_after * 1e3
+        );
+        (selected, twin, nominal_twin) = (vec![fit], None, None);
+    }
+    let read_apart = read_apart.map(|(read, _)| read);
     // A model the joint refit pruned to this one that puts Cl elsewhere (see `joint::refit`):
     // its interval is spanned too, where no path's twin is.
     let pruned_twin = selected.last_mut().and_then(|e| e.cl.twin.take());
@@ -610,6 +626,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // swap, so that the instant is tested on the model whose Cl is reported.
     let reported_ci95 = selected.last().map(|l| spread.as_ref().map_or(l.cl.ci95, |s| s.reported(l.cl.estimate, l.cl.ci95).1));
     let read_late = reported_ci95.and_then(|ci95| select::read_late(data, nominal, &selected, ci95, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline));
+    // Or, read late on both channels, vout read apart from il alike to the effects beside it.
+    let read_late = read_late.or(read_apart);
     // The final circuit with its law's shape (the other law's fit, where the data prefers it),
     // run on the data's inputs where that tells something: a ceramic's operating point (a law
     // the nominal brings keeps its own reference), a diode buck's share of DCM periods.

@@ -26,9 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH, SENSOR_FILTER_IL,
-    SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration, il_closed_by_an_instant,
-    il_misses_materially, il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
+    Alike, Baseline, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, InPlaceOf, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH,
+    SENSOR_FILTER_IL, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SKEW_STARTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration,
+    il_closed_by_an_instant, il_misses_materially, il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
@@ -945,18 +945,84 @@ pub(crate) fn read_late(
     let t = late.trial(data, nominal, n_est, holdout).ok()?;
     let (fit, _) = judge(late.name, t, &against, n_est, baseline);
     let name = Free::SampleDelay.name();
-    let (sample_delay, sample_delay_ci95) = fit.params.get(name).copied().zip(fit.ci95.get(name).copied())?;
-    let (lr_statistic, lr_limit) = fit.lr_statistic.zip(fit.lr_limit)?;
+    let (value, value_ci95) = fit.params.get(name).copied().zip(fit.ci95.get(name).copied())?;
+    let lr = fit.lr_statistic.zip(fit.lr_limit)?;
     (fit.significant && !fit.at_bound && estimator::validate::identified(fit.cl.ci95)).then_some(ReadLate {
-        sample_delay,
-        sample_delay_ci95,
-        lr_statistic,
-        lr_limit,
+        instant: name,
+        value,
+        value_ci95,
+        lr: Some([lr.0, lr.1]),
+        in_place_of: None,
         rms_after: fit.rms_after,
         material: fit.material,
         cl: fit.cl.estimate,
         ci95: fit.cl.ci95,
     })
+}
+
+/// The final model `selected`, read late on both channels (the instant il pins) beside other
+/// effects, against the late reading with vout's own instant alone (`channel_skew`, from il's
+/// instant as the final model has it and vout's at each of [`SKEW_STARTS`], il's reading
+/// calibrated likewise), fitted on the nominal model `base` as a first step: where its instants
+/// and Cl are identified and off their bounds and it explains vout at least as well (the final
+/// model closes no material share of the gap it leaves), the data does not tell the two apart
+/// ([`crate::effect::ReadLate`]); where it also closes a material share of the gap the final
+/// model leaves, it explains vout better with fewer effects. Its fit, judged as a first step
+/// (in il as the late reading is). Switched data and model, il recorded.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn read_apart(
+    data: &DataSet,
+    nominal: &Params,
+    selected: &[EffectFit],
+    base: &Candidate,
+    switched_nominal: bool,
+    switched_data: bool,
+    n_est: usize,
+    holdout: f64,
+    baseline: &Baseline,
+) -> Option<(ReadLate, EffectFit)> {
+    let last = selected.last()?;
+    if !switched_data || data.il.is_none() || selected.len() < 2 {
+        return None;
+    }
+    let fits: Vec<&EffectFit> = selected.iter().collect();
+    let held = Stack::of(&fits, nominal, last.cl.estimate, switched_nominal).ok()?;
+    if !held.switched || !held.free.contains(&Free::SampleDelay) || held.free.contains(&Free::VoutSkew) {
+        return None;
+    }
+    let held = held.params;
+    let alone = Stack::of(&[], nominal, held.cl, switched_nominal).ok()?;
+    let mut x = alone.extension_of(&CHANNEL_SKEW_LATE, io_mean(data));
+    let at_ils = SKEW_STARTS.map(|k| Params {
+        sample_delay: held.sample_delay,
+        sample_duty_share: held.sample_duty_share,
+        il_offset: held.il_offset,
+        il_gain_error: held.il_gain_error,
+        vout_skew: k * held.period(),
+        ..x.starts[0]
+    });
+    x.starts.splice(0..0, at_ils);
+    let t = x.trial(data, nominal, n_est, holdout).ok()?;
+    let (mut fit, cand) = judge(x.name, t, base, n_est, baseline);
+    x.judge_in_il(&mut fit, data, &base.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+    let name = Free::VoutSkew.name();
+    let (value, value_ci95) = fit.params.get(name).copied().zip(fit.ci95.get(name).copied())?;
+    let identified = fit.ci95.values().chain([&fit.cl.ci95]).all(|&ci| estimator::validate::identified(ci));
+    let alike = baseline.closed_of_material_gap(fit.rms_after, last.rms_after).is_none_or(|c| c < MATERIAL_SHARE);
+    let better = baseline.closed_of_material_gap(last.rms_after, fit.rms_after).is_some_and(|c| c >= MATERIAL_SHARE);
+    let others: Vec<String> = selected.iter().filter(|e| !e.late_in_il() && e.name != "sample_delay").map(EffectFit::label).collect();
+    let read = ReadLate {
+        instant: name,
+        value,
+        value_ci95,
+        lr: None,
+        in_place_of: Some(InPlaceOf { effects: others.join(" + "), better }),
+        rms_after: fit.rms_after,
+        material: fit.material,
+        cl: fit.cl.estimate,
+        ci95: fit.cl.ci95,
+    };
+    (identified && alike && !fit.at_bound).then_some((read, fit))
 }
 
 /// The extensions of the load capacitor's own impedance, whose direction in `vout` lies nearly
