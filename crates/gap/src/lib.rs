@@ -568,22 +568,58 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         Some(twin)
     });
-    // A path read late on both channels beside other effects: vout read apart from il alone,
-    // where it explains vout as well (Cl's interval spans its, below) or better, with fewer
-    // effects (taken instead, when it is a finding as a first step; see `select::read_apart`).
-    let mut read_apart = select::read_apart(data, nominal, &selected, &base, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
-    let (mut twin, mut nominal_twin) = (twin, nominal_twin);
-    if let Some((read, fit)) = read_apart.take_if(|(read, fit)| read.in_place_of.as_ref().is_some_and(|p| p.better) && fit.finding) {
-        selection_ended = format!(
-            "vout read {:.1} ns after il alone ({}), taken instead of the path, which ended with {:.3} mV held out against its {:.3} ({selection_ended})",
-            read.value * 1e9,
-            fit.name,
-            selected.last().map_or(f64::NAN, |e| e.rms_after) * 1e3,
-            fit.rms_after * 1e3
-        );
-        (selected, twin, nominal_twin) = (vec![fit], None, None);
+    // A path read late on both channels beside other effects, against vout read apart from il
+    // on top of the effects selected before the late reading (see `select::read_apart`): vout
+    // read at another instant looks like the stand-ins the path took beside the late reading (an
+    // ESL, a gain error, a load ESR). As good as the path, Cl's interval spans its (below).
+    // Better already, a finding with vout's instant apart from il's is taken as it is; else such
+    // a finding leads a forward path of its own, taken instead where it closes a material share
+    // of the gap the path taken left (with no more values fitted, unless it ends at the floor),
+    // or is as good (neither closes a material share of what the other leaves) and leaves less
+    // with no more values fitted; else, at the floor, it is the final model's twin.
+    let apart = select::read_apart(data, nominal, &selected, &base, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+    let (mut twin, mut nominal_twin, mut read_apart) = (twin, nominal_twin, None);
+    let better_already = |a: &select::Apart| a.alike && a.read.in_place_of.as_ref().is_some_and(|p| p.better);
+    let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false));
+    let fitted = |s: &[EffectFit]| s.iter().map(|e| e.ci95.len()).sum::<usize>();
+    match apart {
+        Some(a) if a.alike && !(better_already(&a) && a.fit().finding && a.skewed()) => read_apart = Some(a.read),
+        // (Counted in the values fitted: vout's own instant is one more than the late reading.
+        // A path at the floor is taken over only by one as good with no more values fitted, which
+        // a path from more values than it has cannot be: not run.)
+        Some(a) if a.fit().finding && a.skewed() && !(ends_at_floor(&selected) && fitted(&a.steps) > fitted(&selected)) => {
+            let (other, other_ended) = if better_already(&a) {
+                (a.steps.clone(), None)
+            } else {
+                // (Forward only: a full path's backward step and joint refit cost 2-5 s more on
+                // the bench's several-effect boards, where vout's instant changed nothing.)
+                let (other, ended) = select::forward(data, nominal, &a.steps, &effects, select::MAX_EFFECTS, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+                (other, Some(ended))
+            };
+            let (left, other_left) = (selected.last().map_or(f64::INFINITY, |e| e.rms_after), other.last().map_or(f64::INFINITY, |e| e.rms_after));
+            let no_more = fitted(&other) <= fitted(&selected);
+            let better = closes_of_left(&other, left).is_some() && (no_more || ends_at_floor(&other));
+            let as_good = closes_of_left(&selected, other_left).is_none() && no_more && other_left < left;
+            // (A path that dropped vout's instant again is another path, not vout read apart.)
+            let skewed = other.iter().any(|e| e.params.contains_key(Free::VoutSkew.name()));
+            if skewed && contradicts_il(&other).is_none() && (better || as_good) {
+                let then = other_ended.map_or_else(String::new, |e| format!(", then {e}"));
+                selection_ended = format!(
+                    "vout read {:.1} ns after il ({}) in place of {}{then}, taken instead of the path, which ended with {:.3} mV held out against its {:.3} ({selection_ended})",
+                    a.read.value * 1e9,
+                    a.fit().name,
+                    a.replaced(),
+                    left * 1e3,
+                    other_left * 1e3
+                );
+                let replaced = twin_of(&selected);
+                (selected, twin, nominal_twin) = (other, replaced, None);
+            } else if twin.is_none() && !same_model(&other, &selected) {
+                twin = twin_of(&other);
+            }
+        }
+        _ => {}
     }
-    let read_apart = read_apart.map(|(read, _)| read);
     // A model the joint refit pruned to this one that puts Cl elsewhere (see `joint::refit`):
     // its interval is spanned too, where no path's twin is.
     let pruned_twin = selected.last_mut().and_then(|e| e.cl.twin.take());

@@ -961,14 +961,15 @@ pub(crate) fn read_late(
 }
 
 /// The final model `selected`, read late on both channels (the instant il pins) beside other
-/// effects, against the late reading with vout's own instant alone (`channel_skew`, from il's
-/// instant as the final model has it and vout's at each of [`SKEW_STARTS`], il's reading
-/// calibrated likewise), fitted on the nominal model `base` as a first step: where its instants
-/// and Cl are identified and off their bounds and it explains vout at least as well (the final
-/// model closes no material share of the gap it leaves), the data does not tell the two apart
+/// effects, against the effects selected before the late reading with the late reading in its
+/// form with vout's own instant (`channel_skew`, from il's instant as the final model has it and
+/// vout's at each of [`SKEW_STARTS`], il's reading calibrated likewise), fitted as a step on top
+/// of them (judged in il as the late reading is), where its instants and Cl are identified and
+/// off their bounds. [`Apart::alike`]: it explains vout at least as well (the final model
+/// closes no material share of the gap it leaves), so the data does not tell the two apart
 /// ([`crate::effect::ReadLate`]); where it also closes a material share of the gap the final
-/// model leaves, it explains vout better with fewer effects. Its fit, judged as a first step
-/// (in il as the late reading is). Switched data and model, il recorded.
+/// model leaves, it explains vout better with fewer effects. `base`: the nominal model's fit.
+/// Switched data and model, il recorded.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn read_apart(
     data: &DataSet,
@@ -980,7 +981,7 @@ pub(crate) fn read_apart(
     n_est: usize,
     holdout: f64,
     baseline: &Baseline,
-) -> Option<(ReadLate, EffectFit)> {
+) -> Option<Apart> {
     let last = selected.last()?;
     if !switched_data || data.il.is_none() || selected.len() < 2 {
         return None;
@@ -991,8 +992,12 @@ pub(crate) fn read_apart(
         return None;
     }
     let held = held.params;
-    let alone = Stack::of(&[], nominal, held.cl, switched_nominal).ok()?;
-    let mut x = alone.extension_of(&CHANNEL_SKEW_LATE, io_mean(data));
+    let late = selected.iter().position(|e| e.params.contains_key(Free::SampleDelay.name()))?;
+    let before = &fits[..late];
+    let prefix = Stack::of(before, nominal, held.cl, switched_nominal).ok()?;
+    let against = if before.is_empty() { base.clone() } else { prefix.fit(data, &[prefix.params], n_est, holdout).ok()? };
+    let prefix = Stack { params: against.fit.params, ..prefix };
+    let mut x = prefix.extension_of(&CHANNEL_SKEW_LATE, io_mean(data));
     let at_ils = SKEW_STARTS.map(|k| Params {
         sample_delay: held.sample_delay,
         sample_duty_share: held.sample_duty_share,
@@ -1003,26 +1008,58 @@ pub(crate) fn read_apart(
     });
     x.starts.splice(0..0, at_ils);
     let t = x.trial(data, nominal, n_est, holdout).ok()?;
-    let (mut fit, cand) = judge(x.name, t, base, n_est, baseline);
-    x.judge_in_il(&mut fit, data, &base.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+    let (mut fit, cand) = judge(x.name, t, &against, n_est, baseline);
+    x.judge_in_il(&mut fit, data, &against.fit.params, &cand.fit.params, n_est, baseline.tolerance);
+    let fit = fit.into_step();
     let name = Free::VoutSkew.name();
     let (value, value_ci95) = fit.params.get(name).copied().zip(fit.ci95.get(name).copied())?;
     let identified = fit.ci95.values().chain([&fit.cl.ci95]).all(|&ci| estimator::validate::identified(ci));
     let alike = baseline.closed_of_material_gap(fit.rms_after, last.rms_after).is_none_or(|c| c < MATERIAL_SHARE);
     let better = baseline.closed_of_material_gap(last.rms_after, fit.rms_after).is_some_and(|c| c >= MATERIAL_SHARE);
-    let others: Vec<String> = selected.iter().filter(|e| !e.late_in_il() && e.name != "sample_delay").map(EffectFit::label).collect();
+    let replaced: Vec<String> = selected[late..].iter().filter(|e| !e.params.contains_key(Free::SampleDelay.name())).map(EffectFit::label).collect();
     let read = ReadLate {
         instant: name,
         value,
         value_ci95,
         lr: None,
-        in_place_of: Some(InPlaceOf { effects: others.join(" + "), better }),
+        in_place_of: Some(InPlaceOf { effects: replaced.join(" + "), better }),
         rms_after: fit.rms_after,
         material: fit.material,
         cl: fit.cl.estimate,
         ci95: fit.cl.ci95,
     };
-    (identified && alike && !fit.at_bound).then_some((read, fit))
+    let at_bound = fit.at_bound;
+    let steps = selected[..late].iter().cloned().chain([fit]).collect();
+    (identified && !at_bound).then_some(Apart { read, steps, alike })
+}
+
+/// The late reading with vout's own instant alone against a final model ([`read_apart`]).
+pub(crate) struct Apart {
+    /// It as an alternative of the final model (`in_place_of` names the effects it replaces).
+    pub read: ReadLate,
+    /// The effects selected before the late reading, then it with vout's own instant (judged as
+    /// a step on top of them).
+    pub steps: Vec<EffectFit>,
+    /// It explains vout at least as well as the final model.
+    pub alike: bool,
+}
+
+impl Apart {
+    /// Its own step, vout's instant apart from il's.
+    pub fn fit(&self) -> &EffectFit {
+        &self.steps[self.steps.len() - 1]
+    }
+
+    /// The labels of the final model's effects it replaces.
+    pub fn replaced(&self) -> &str {
+        self.read.in_place_of.as_ref().map_or("", |p| p.effects.as_str())
+    }
+
+    /// vout's instant is apart from il's: its interval leaves out zero.
+    pub fn skewed(&self) -> bool {
+        let [lo, hi] = self.read.value_ci95;
+        lo > 0.0 || hi < 0.0
+    }
 }
 
 /// The extensions of the load capacitor's own impedance, whose direction in `vout` lies nearly
