@@ -188,15 +188,15 @@ impl Twin {
 /// both. A harness buck with 0.70 µF of load, read 42 ns late, ended at the floor read on time
 /// with 0.542 [0.435, 0.555] µF; read at its fitted 46 ns, 0.78 µF.
 ///
-/// A final model read late on both channels (the instant il pins) is refitted likewise with
-/// vout's own instant (`vout_skew`): a multiplexed ADC converts vout a fraction of the period
-/// after il, and with the output capacitor's ESR dominating its ripple, vout read `s` later is
-/// nearly vout with an ESL of `s·Rc` (or a load ESR) in the model. Where vout's instant
-/// displaces such an effect, the model with it in that effect's place is fitted; where it
-/// explains vout as well (the final model closes no material share of what it leaves), the data
-/// does not tell the two apart and the interval spans both. Our FMU's ADC reading il at 40 ns
-/// and vout 60 ns after it, il with 10 mA of noise, ended on an ESL and a load ESR with Cl
-/// 4.38 [4.31, 4.52] µF for 4.7.
+/// A final model read late on both channels (the instant il pins) is weighed likewise against
+/// vout read at its own instant (`vout_skew`, see `select::read_apart`): a multiplexed ADC
+/// converts vout a fraction of the period after il, and with the output capacitor's ESR carrying
+/// its ripple, vout read `s` later is nearly vout with an ESL of `s·Rc` (or a load ESR) in the
+/// model. The effects selected before the late reading, with vout's own instant in place of
+/// those after it, where that explains vout as well (neither closes a material share of what
+/// the other leaves): the data does not tell the two apart, and the interval spans both. Our
+/// FMU's ADC reading il at 40 ns and vout 60 ns after it, il with 10 mA of noise, ended on an
+/// ESL and a load ESR with Cl 4.38 [4.31, 4.52] µF for 4.7; read apart, 4.69 µF.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ReadLate {
     /// The instant fitted: `sample_delay` (the model read at the period start) or `vout_skew`

@@ -1033,7 +1033,8 @@ pub(crate) fn read_apart(
     (identified && !at_bound).then_some(Apart { read, steps, alike })
 }
 
-/// The late reading with vout's own instant alone against a final model ([`read_apart`]).
+/// The late reading with vout's own instant, on top of the effects selected before the late
+/// reading, against a final model ([`read_apart`]).
 pub(crate) struct Apart {
     /// It as an alternative of the final model (`in_place_of` names the effects it replaces).
     pub read: ReadLate,
