@@ -603,15 +603,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             // (A path that dropped vout's instant again is another path, not vout read apart.)
             let skewed = other.iter().any(|e| e.params.contains_key(Free::VoutSkew.name()));
             if skewed && contradicts_il(&other).is_none() && (better || as_good) {
-                let then = other_ended.map_or_else(String::new, |e| format!(", then {e}"));
-                selection_ended = format!(
-                    "vout read {:.1} ns after il ({}) in place of {}{then}, taken instead of the path, which ended with {:.3} mV held out against its {:.3} ({selection_ended})",
-                    a.read.value * 1e9,
-                    a.fit().name,
-                    a.replaced(),
-                    left * 1e3,
-                    other_left * 1e3
-                );
+                let from = match other_ended {
+                    None => format!("vout read {:.1} ns after il ({}) in place of {}", a.read.value * 1e9, a.fit().name, a.replaced()),
+                    Some(ended) => format!("the path from vout read apart from il ({} on top of {}): {ended}", a.fit().name, a.before()),
+                };
+                selection_ended = format!("{from}; taken instead of the path, which ended with {:.3} mV held out against its {:.3} ({selection_ended})", left * 1e3, other_left * 1e3);
                 let replaced = twin_of(&selected);
                 (selected, twin, nominal_twin) = (other, replaced, None);
             } else if twin.is_none() && !same_model(&other, &selected) {

@@ -1051,6 +1051,12 @@ impl Apart {
         &self.steps[self.steps.len() - 1]
     }
 
+    /// The labels of the effects selected before the late reading, or `the nominal model`.
+    pub fn before(&self) -> String {
+        let before: Vec<String> = self.steps[..self.steps.len() - 1].iter().map(EffectFit::label).collect();
+        if before.is_empty() { "the nominal model".to_string() } else { before.join(" + ") }
+    }
+
     /// The labels of the final model's effects it replaces.
     pub fn replaced(&self) -> &str {
         self.read.in_place_of.as_ref().map_or("", |p| p.effects.as_str())
