@@ -89,7 +89,7 @@ pub fn waterfall<'a>(gap_rms: f64, steps: &[Step<'_>]) -> Bars<'a> {
         bars.push(Bar { label: format!("+ {} → {}", s.name, si(s.rms_after, "V", 3)), from: next, to: level, color, text: format!("{} closed{in_il}", share_text(closed)) });
         level = next;
     }
-    bars.push(Bar { label: "left above the floor".into(), from: 0.0, to: level, color: GREY, text: si(level, "%", 3) });
+    bars.push(Bar { label: "left above the floor".into(), from: 0.0, to: level, color: GREY, text: share_text(level) });
     Bars { title: "The gap above the noise floor, closed effect by effect", value: Axis::linear("share of the nominal's gap above the floor (power)", "%"), bars, reference: None, connect: true }
 }
 
@@ -272,6 +272,8 @@ mod tests {
         assert_eq!(w.bars[2].text, "15.0 % closed");
         // A step judged in il closes nothing of vout's gap, and says what it closes of il's.
         assert_eq!(w.bars[3].text, "0.0 % closed; il's gap 99.9 % closed");
+        // What is left reads as the steps do, to a tenth of a percent (5.0004 %, not "5.00 %").
+        assert_eq!(w.bars[4].text, "5.0 %");
         let svg = w.render().unwrap();
         assert_eq!(svg.matches(r##"fill="#2CA02C""##).count(), 3, "one green bar per selected effect");
         assert!(svg.contains("+ dead_time → 2.10 mV") && svg.contains("nominal model, residual 9.00 mV RMS"));
