@@ -580,7 +580,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let apart = select::read_apart(data, nominal, &selected, &base, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
     let (mut twin, mut nominal_twin, mut read_apart) = (twin, nominal_twin, None);
     let better_already = |a: &select::Apart| a.alike && a.read.in_place_of.as_ref().is_some_and(|p| p.better);
-    let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false));
+    let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| at_floor(&e));
     let fitted = |s: &[EffectFit]| s.iter().map(|e| e.ci95.len()).sum::<usize>();
     match apart {
         Some(a) if a.alike && !(better_already(&a) && a.fit().finding && a.skewed()) => read_apart = Some(a.read),
