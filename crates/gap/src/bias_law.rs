@@ -10,12 +10,12 @@
 //! does not, Cl's interval spans both laws' (a type-B term for the law, like the interval
 //! test's for the model).
 use buck_model::Params;
-use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::validate::chi2_99;
 use serde::Serialize;
 
-use crate::effect::{Baseline, EffectFit, residual, rms};
+use crate::effect::{EffectFit, residual, rms};
+use crate::problem::Problem;
 use crate::select::Stack;
 
 /// Cl under the other bias law.
@@ -47,7 +47,8 @@ pub struct BiasLawSpread {
 impl BiasLawSpread {
     /// The final model `selected` (carrying `cap_dc_bias`) refitted with the other law, when it
     /// can be, and that refit; `None` otherwise.
-    pub(crate) fn of(data: &DataSet, nominal: &Params, selected: &[EffectFit], n_est: usize, holdout: f64, baseline: &Baseline) -> Option<(Self, Candidate)> {
+    pub(crate) fn of(p: &Problem, selected: &[EffectFit]) -> Option<(Self, Candidate)> {
+        let Problem { data, nominal, n_est, holdout, baseline, .. } = *p;
         let last = selected.last()?;
         if !selected.iter().any(|e| e.name == "cap_dc_bias") {
             return None;

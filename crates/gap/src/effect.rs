@@ -206,13 +206,9 @@ pub struct ReadLate {
     pub value: f64,
     /// Its 95 % confidence interval [s].
     pub value_ci95: [f64; 2],
-    /// The likelihood-ratio statistic of the instant against the final model, and its limit at
-    /// 1 % (χ² with one degree of freedom); `None` where it takes an effect's place.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lr: Option<[f64; 2]>,
-    /// The final model's effects it takes the place of, where it is fitted instead of them.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub in_place_of: Option<InPlaceOf>,
+    /// What it is weighed against: the final model it is added to, or the effects it replaces.
+    #[serde(flatten)]
+    pub against: Against,
     /// Its held-out residual [V RMS].
     pub rms_after: f64,
     /// It closes a material share of the gap the final model leaves ([`MATERIAL_SHARE`]; the
@@ -222,6 +218,17 @@ pub struct ReadLate {
     pub cl: f64,
     /// Cl's 95 % confidence interval so read [F].
     pub ci95: [f64; 2],
+}
+
+/// What a [`ReadLate`] model is weighed against (in JSON, the variant's name is the key).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Against {
+    /// Fitted on top of the final model: the likelihood-ratio statistic of the instant, and its
+    /// limit at 1 % (χ² with one degree of freedom).
+    Lr([f64; 2]),
+    /// Fitted instead of the final model's effects after its late reading.
+    InPlaceOf(InPlaceOf),
 }
 
 /// The effects of the final model a [`ReadLate`] model is fitted instead of.
@@ -246,15 +253,10 @@ impl std::fmt::Display for ReadLate {
         let [lo, hi] = self.ci95.map(|v| v * 1e6);
         let [dlo, dhi] = self.value_ci95.map(|v| v * 1e9);
         let (read, whose) = if self.instant == Free::VoutSkew.name() { ("vout read", "after il") } else { ("read", "after each period start") };
-        let why = match (&self.in_place_of, self.lr) {
-            (Some(them), _) => format!("in place of {}, {}", them.effects, if them.better { "explaining vout better" } else { "alike" }),
-            (None, Some([lr, limit])) => format!("significant, LR {lr:.1} > {limit:.1}, {}", if self.material { "and material" } else { "though not material" }),
-            (None, None) => "significant".to_string(),
-        };
-        let moves = match &self.in_place_of {
-            Some(them) if them.better => "it explains vout better with fewer effects",
-            Some(_) => "the data does not tell them apart",
-            None => "the reading's instant moves Cl",
+        let (why, moves) = match &self.against {
+            Against::InPlaceOf(them) if them.better => (format!("in place of {}, explaining vout better", them.effects), "it explains vout better with fewer effects"),
+            Against::InPlaceOf(them) => (format!("in place of {}, alike", them.effects), "the data does not tell them apart"),
+            Against::Lr([lr, limit]) => (format!("significant, LR {lr:.1} > {limit:.1}, {}", if self.material { "and material" } else { "though not material" }), "the reading's instant moves Cl"),
         };
         write!(
             f,
@@ -1895,8 +1897,7 @@ pub(crate) mod tests {
             instant: "sample_delay",
             value: 46.5e-9,
             value_ci95: [44.2e-9, 49.0e-9],
-            lr: Some([12.7, 6.6]),
-            in_place_of: None,
+            against: Against::Lr([12.7, 6.6]),
             rms_after: 3.94e-3,
             material: false,
             cl: 0.78e-6,
@@ -1907,11 +1908,11 @@ pub(crate) mod tests {
         let said = late.to_string();
         assert!(said.contains("46.5 ns after each period start") && said.contains("LR 12.7 > 6.6, though not material") && said.contains("0.7800 µF") && said.contains("spans both"), "{said}");
         // vout's own instant in an ESL's place: said as such, without a test it did not take.
-        let in_place_of = |better| Some(InPlaceOf { effects: "esl + load_esr".to_string(), better });
-        let skewed = ReadLate { instant: "vout_skew", value: 61.0e-9, lr: None, in_place_of: in_place_of(false), ..late.clone() };
+        let in_place_of = |better| Against::InPlaceOf(InPlaceOf { effects: "esl + load_esr".to_string(), better });
+        let skewed = ReadLate { instant: "vout_skew", value: 61.0e-9, against: in_place_of(false), ..late.clone() };
         let said = skewed.to_string();
         assert!(said.contains("vout read 61.0 ns after il") && said.contains("in place of esl + load_esr, alike") && !said.contains("LR") && said.contains("does not tell them apart"), "{said}");
-        let said = ReadLate { in_place_of: in_place_of(true), ..skewed }.to_string();
+        let said = ReadLate { against: in_place_of(true), ..skewed }.to_string();
         assert!(said.contains("in place of esl + load_esr, explaining vout better") && said.contains("fewer effects"), "{said}");
     }
 

@@ -25,12 +25,12 @@
 //! ([`from_nominal`]) where the path taken still misses materially or its model's inductor
 //! current contradicts the measured one.
 use buck_model::Params;
-use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, DRIFTING, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, Twin, effect_label, judge, residual, rms};
+use crate::effect::{DRIFTING, EffectFit, MATERIAL_SHARE, MAX_DRIFT, SIMULATED_EFFECTS, Twin, effect_label, judge, residual, rms};
+use crate::problem::Problem;
 use crate::select::{DIODE_RESISTANCE_STARTS, DIODE_TOPOLOGY, Extension, SWITCH_NODE_CAPACITANCE_STARTS, SWITCH_RESISTANCE_STARTS, Stack};
 
 /// An effect of the joint model and the free parameters it owns.
@@ -128,7 +128,8 @@ fn without(stack: &Stack, g: &Group, nominal: &Params) -> Stack {
 
 /// The model `stack` without the groups `gone` ([`without`]), refitted: the model at its fitted
 /// values, and its fit.
-fn refitted_without<'a>(data: &DataSet, nominal: &Params, stack: &Stack, gone: impl IntoIterator<Item = &'a Group>, n_est: usize, holdout: f64) -> Option<(Stack, Candidate)> {
+fn refitted_without<'a>(p: &Problem, stack: &Stack, gone: impl IntoIterator<Item = &'a Group>) -> Option<(Stack, Candidate)> {
+    let Problem { data, nominal, n_est, holdout, .. } = *p;
     let less = gone.into_iter().fold(stack.clone(), |s, g| without(&s, g, nominal));
     let fit = less.fit(data, &[less.params], n_est, holdout).ok()?;
     Some((Stack { params: fit.fit.params, ..less }, fit))
@@ -136,8 +137,8 @@ fn refitted_without<'a>(data: &DataSet, nominal: &Params, stack: &Stack, gone: i
 
 /// `g` judged on top of the model without it (fitted as `against`) in the model `with` (fitted
 /// as `cand`): `None` when its parameters are not identified there.
-#[allow(clippy::too_many_arguments)]
-fn judged(data: &DataSet, nominal: &Params, g: &Group, with: &Stack, cand: &Candidate, against: &Candidate, n_est: usize, baseline: &Baseline) -> Option<EffectFit> {
+fn judged(p: &Problem, g: &Group, with: &Stack, cand: &Candidate, against: &Candidate) -> Option<EffectFit> {
+    let Problem { data, nominal, n_est, baseline, .. } = *p;
     let x = Extension::within(with, g.name, &g.frees, against.fit.params);
     let t = x.assess(cand.clone(), data, nominal).ok()?;
     let (mut fit, _) = judge(g.name, t, against, n_est, baseline);
@@ -165,7 +166,8 @@ fn twin_of(groups: &[Group], cand: &Candidate) -> Twin {
 /// final model still misses materially on switched data: `selected` becomes the pruned joint
 /// model's effects (those selected before, in their order, then those it added, the most
 /// material first), each with its step's fit. Returns what changed.
-pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
+pub(crate) fn refit(p: &Problem, selected: &mut Vec<EffectFit>) -> Option<String> {
+    let Problem { baseline, .. } = *p;
     let last = selected.last()?;
     // A full sequence that still misses materially ran out of steps, not of effects.
     let full = selected.len() >= crate::select::MAX_EFFECTS;
@@ -180,10 +182,10 @@ pub(crate) fn refit(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectF
     // and a model with it that closed no material share landed where the one without it
     // closed 58 % (a diode buck's).
     let free_load_esr = !selected.iter().any(|e| e.name == "load_esr");
-    if free_load_esr && let Some(done) = refit_with(data, nominal, selected, switched_nominal, n_est, holdout, baseline, true) {
+    if free_load_esr && let Some(done) = refit_with(p, selected, true) {
         return Some(done);
     }
-    refit_with(data, nominal, selected, switched_nominal, n_est, holdout, baseline, false)
+    refit_with(p, selected, false)
 }
 
 /// The selected effects `fits` as groups of a joint model (Cl at `cl`), each owning what it frees
@@ -221,7 +223,8 @@ const KIND: [&str; 4] = ["diode_drop", "dcm", "dead_time", "delay"];
 /// It must close a material share of the gap `gap_left` (held-out RMS): before its pruning,
 /// which costs a round of refits per effect, and after. Where it leaves no more than that but
 /// closes no material share of it, it is as good a model, and a twin of the path's.
-pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectFit], gap_left: f64, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<FromNominal> {
+pub(crate) fn from_nominal(p: &Problem, selected: &[EffectFit], gap_left: f64) -> Option<FromNominal> {
+    let Problem { data, nominal, n_est, baseline, .. } = *p;
     let kind: Vec<&EffectFit> = selected.iter().filter(|e| KIND.contains(&e.name)).collect();
     let mut stack = Stack::of(&kind, nominal, baseline.cl, true).ok()?;
     let mut groups = groups_of(&kind, 0, nominal, baseline.cl, true)?;
@@ -253,7 +256,7 @@ pub(crate) fn from_nominal(data: &DataSet, nominal: &Params, selected: &[EffectF
         let cl_identified = cand.fit.estimate("Cl").is_some_and(|e| estimator::validate::identified([e.ci95.0, e.ci95.1]));
         return (left <= gap_left && cl_identified && physical(&groups, &cand, nominal)).then(|| FromNominal::AsGood(twin_of(&groups, &cand)));
     }
-    settle(data, nominal, stack, cand, groups, Vec::new(), gap_left, n_est, holdout, baseline).map(|(out, _)| FromNominal::Closes(out))
+    settle(p, stack, cand, groups, Vec::new(), gap_left).map(|(out, _)| FromNominal::Closes(out))
 }
 
 /// What the converter's joint model from its nominal values comes to ([`from_nominal`]).
@@ -291,8 +294,8 @@ fn nominal_start(stack: &Stack, groups: &[Group], nominal: &Params) -> Params {
 
 /// [`refit`] past its precondition, freeing the load capacitor's ESR too where `load_esr`
 /// (`None` where it is not identified then).
-#[allow(clippy::too_many_arguments)]
-fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline, load_esr: bool) -> Option<String> {
+fn refit_with(p: &Problem, selected: &mut Vec<EffectFit>, load_esr: bool) -> Option<String> {
+    let Problem { data, nominal, switched_nominal, n_est, holdout, baseline, .. } = *p;
     let last = selected.last()?;
     let fits: Vec<&EffectFit> = selected.iter().collect();
     let mut stack = Stack::of(&fits, nominal, last.cl.estimate, switched_nominal).ok()?;
@@ -340,7 +343,7 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
     if share < MATERIAL_SHARE {
         return None;
     }
-    let (out, dropped) = settle(data, nominal, stack, cand, groups, ripple, last.rms_after, n_est, holdout, baseline)?;
+    let (out, dropped) = settle(p, stack, cand, groups, ripple, last.rms_after)?;
     *selected = out;
     let names = |gs: &[Group]| gs.iter().map(|g| g.label()).collect::<Vec<_>>().join(", ");
     Some(format!(
@@ -354,19 +357,8 @@ fn refit_with(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, s
 /// given all the others; `None` where it leaves no physical model, or one that no longer
 /// closes a material share of the gap `gap_left` (held-out RMS) it was fitted to close. The
 /// pruned model's effects in sequence, each with its step's fit, and the effects pruned.
-#[allow(clippy::too_many_arguments)]
-fn settle(
-    data: &DataSet,
-    nominal: &Params,
-    mut stack: Stack,
-    mut cand: Candidate,
-    mut groups: Vec<Group>,
-    ripple: Vec<EffectFit>,
-    gap_left: f64,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> Option<(Vec<EffectFit>, Vec<Group>)> {
+fn settle(p: &Problem, mut stack: Stack, mut cand: Candidate, mut groups: Vec<Group>, ripple: Vec<EffectFit>, gap_left: f64) -> Option<(Vec<EffectFit>, Vec<Group>)> {
+    let Problem { nominal, baseline, .. } = *p;
     // With every drift free at once, values the data barely tells apart (L against a saturating
     // core, C against Cl) can wander far past any tolerance: such a fit ended on a bound, no
     // physical model to prune. Pruning it back brought nothing on any set it was tried on, for
@@ -412,12 +404,12 @@ fn settle(
             (0..groups.len()).filter(|&k| groups[k].name == "param_drift" && groups[k].frees.iter().all(|f| (f.get(&stack.params) / f.get(nominal) - 1.0).abs() <= baseline.tolerance)).collect();
         let added_lost = lost.iter().copied().find(|&k| !groups[k].selected);
         if let Some(k) = added_lost.or(lost.first().copied().filter(|_| tolerated.is_empty())) {
-            (stack, cand) = refitted_without(data, nominal, &stack, [&groups[k]], n_est, holdout)?;
+            (stack, cand) = refitted_without(p, &stack, [&groups[k]])?;
             dropped.push(groups.remove(k));
             continue;
         }
         if !tolerated.is_empty() {
-            (stack, cand) = refitted_without(data, nominal, &stack, tolerated.iter().map(|&k| &groups[k]), n_est, holdout)?;
+            (stack, cand) = refitted_without(p, &stack, tolerated.iter().map(|&k| &groups[k]))?;
             dropped.extend(tolerated.iter().rev().map(|&k| groups.remove(k)));
             continue;
         }
@@ -425,8 +417,8 @@ fn settle(
             .par_iter()
             .enumerate()
             .filter_map(|(k, g)| {
-                let (less, against) = refitted_without(data, nominal, &stack, [g], n_est, holdout)?;
-                let fit = judged(data, nominal, g, &stack, &cand, &against, n_est, baseline);
+                let (less, against) = refitted_without(p, &stack, [g])?;
+                let fit = judged(p, g, &stack, &cand, &against);
                 Some(Without { k, fit, less, against })
             })
             .collect();
@@ -437,7 +429,7 @@ fn settle(
         // they close no material share of the gap the model leaves without them.
         let immaterial: Vec<usize> = trials.iter().filter(|t| t.fit.as_ref().is_none_or(|f| !f.finding && !f.material)).map(|t| t.k).collect();
         if immaterial.len() > 1
-            && let Some((less, against)) = refitted_without(data, nominal, &stack, immaterial.iter().map(|&k| &groups[k]), n_est, holdout)
+            && let Some((less, against)) = refitted_without(p, &stack, immaterial.iter().map(|&k| &groups[k]))
             && baseline.closed_of_material_gap(rms(&residual(&against)), rms(&residual(&cand))).is_none_or(|c| c < MATERIAL_SHARE)
         {
             if physical(immaterial.iter().map(|&k| &groups[k]), &cand, nominal) {
@@ -473,7 +465,7 @@ fn settle(
             if j + 1 == order.len() {
                 return Some(cand.clone());
             }
-            refitted_without(data, nominal, &stack, order[j + 1..].iter().map(|(g, _)| g), n_est, holdout).map(|(_, fit)| fit)
+            refitted_without(p, &stack, order[j + 1..].iter().map(|(g, _)| g)).map(|(_, fit)| fit)
         })
         .collect();
     let mut out: Vec<EffectFit> = ripple;
@@ -505,6 +497,7 @@ fn settle(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::effect::Baseline;
     use buck_model::Mode;
     use estimator::experiment::{Experiment, ModelPlant, run};
 
@@ -519,9 +512,14 @@ mod tests {
         let data = run(&mut ModelPlant::new(truth, Mode::Switched), &exp).unwrap();
         let stack = Stack { params: truth, free: vec![Free::Cl, Free::SwitchResistance, Free::LowSideRatio], delay: 0, effects: vec!["switch_resistance", "unequal_switches"], switched: true };
         let switches = Group { name: "switch_resistance", frees: vec![Free::SwitchResistance], selected: true };
-        let (less, fit) = refitted_without(&data, &Params::default(), &stack, [&switches], 800, 1.0 / 3.0).expect("the model without the switches fits");
+        let nominal = Params::default();
+        let (n_est, holdout) = (800, 1.0 / 3.0);
+        let base = Stack::nominal(&nominal, truth.cl, true).fit(&data, &[Params { cl: truth.cl, ..nominal }], n_est, holdout).expect("the nominal fits");
+        let baseline = Baseline::of(&data, &base, n_est, 0.01);
+        let problem = Problem { data: &data, nominal: &nominal, switched_nominal: true, switched_data: true, n_est, holdout, baseline: &baseline };
+        let (less, fit) = refitted_without(&problem, &stack, [&switches]).expect("the model without the switches fits");
         assert_eq!(less.free, vec![Free::Cl]);
-        assert_eq!(less.params.low_side_ratio, Params::default().low_side_ratio);
+        assert_eq!(less.params.low_side_ratio, nominal.low_side_ratio);
         assert!(fit.fit.estimate("Cl").is_some());
     }
 }

@@ -18,6 +18,7 @@ mod limits;
 mod locate;
 mod options;
 mod pairs;
+mod problem;
 mod quantization;
 mod select;
 mod tested;
@@ -32,8 +33,8 @@ use std::collections::BTreeMap;
 pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
-    Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, InPlaceOf, MATERIAL_OF_SWING, MATERIAL_SHARE, NotTested,
-    RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
+    Against, Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, InPlaceOf, MATERIAL_OF_SWING, MATERIAL_SHARE,
+    NotTested, RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
@@ -350,6 +351,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let n_est = ((data.len() as f64) * (1.0 - opts.holdout)).round() as usize;
     let baseline = effect::Baseline::of(data, &base, n_est, opts.tolerance);
     let candidates::Fitted { mut effects, not_tested, switched } = candidates::fit_all(data, nominal, opts, &base, &baseline, n_est);
+    let problem = problem::Problem { data, nominal, switched_nominal: opts.nominal == Nominal::Switched, switched_data: switched, n_est, holdout: opts.holdout, baseline: &baseline };
+    let p = &problem;
     effects.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
     // The first step: the finding (significant, material, outside tolerance) with the lowest
     // Akaike criterion; of two nested effects (dcm inside diode_drop) the richer one wins only
@@ -370,14 +373,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // sequence that the joint refit does not settle also goes on, one effect at a time (the
     // joint refit frees no ESL or bias law).
     let path = |first: &[EffectFit]| {
-        let forward = |from: &[EffectFit], max| select::forward(data, nominal, from, &effects, max, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+        let forward = |from: &[EffectFit], max| select::forward(p, from, &effects, max);
         let (mut selected, mut ended) = forward(first, select::MAX_EFFECTS);
         let full = selected.len() >= select::MAX_EFFECTS;
-        if let Some(dropped) = select::backward(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline) {
+        if let Some(dropped) = select::backward(p, &mut selected) {
             ended = format!("{ended}; then {dropped}");
         }
         let greedy = selected.clone();
-        let joint = joint::refit(data, nominal, &mut selected, opts.nominal == Nominal::Switched, n_est, opts.holdout, &baseline);
+        let joint = joint::refit(p, &mut selected);
         let left = |s: &[EffectFit]| s.last().map_or(f64::INFINITY, |e| e.rms_after);
         // A joint model that leaves nothing material is kept; else the joint model is kept unless
         // going on leaves clearly less.
@@ -399,14 +402,12 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         Some(first) if first.finding => path(std::slice::from_ref(first)),
         Some(drift) => (Vec::new(), format!("the data is consistent with the nominal: best explained by a drift within tolerance ({})", drift.drift_label())),
         // Two effects that only together are a finding (see `pairs`).
-        None if let Some((steps, note)) = (switched && opts.nominal == Nominal::Switched).then(|| pairs::first_steps(data, nominal, &effects, &base, n_est, opts.holdout, &baseline)).flatten() => {
+        None if let Some((steps, note)) = (switched && p.switched_nominal).then(|| pairs::first_steps(p, &effects, &base)).flatten() => {
             let (selected, ended) = path(&steps);
             (selected, format!("{note}: {ended}"))
         }
         // Nothing in vout, il read through a filter (see `select::il_filter_first`).
-        None if let Some(step) = (switched && opts.nominal == Nominal::Switched).then(|| select::il_filter_first(data, nominal, base.fit.params.cl, n_est, opts.holdout, &baseline)).flatten() => {
-            path(std::slice::from_ref(&step))
-        }
+        None if let Some(step) = (switched && p.switched_nominal).then(|| select::il_filter_first(p, base.fit.params.cl)).flatten() => path(std::slice::from_ref(&step)),
         None => {
             // The candidate closing most of a material share that ended on a bound, if any.
             let on_bound = effects.iter().filter(|e| e.at_bound && e.material).filter_map(|e| Some((e.name, e.closed_percent?))).max_by(|a, b| a.1.total_cmp(&b.1));
@@ -497,7 +498,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // path at the floor, matches the measured current where the path's does not).
     let mut nominal_twin = None;
     if switched
-        && opts.nominal == Nominal::Switched
+        && p.switched_nominal
         && let Some(left) = selected.last().map(|e| e.rms_after)
     {
         let misses = baseline.misses_materially(left) == Some(true);
@@ -519,7 +520,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             // kept synchronous without dead time, holds the switches, L −15.9 % and the late
             // reading at the floor, Cl 7.36 [7.28, 7.45] µF).
             let first_steps = &selected[..selected.len().min(select::MAX_EFFECTS)];
-            match joint::from_nominal(data, nominal, first_steps, gap_left, n_est, opts.holdout, &baseline) {
+            match joint::from_nominal(p, first_steps, gap_left) {
                 Some(joint::FromNominal::Closes(other)) if better(&other) => {
                     let why = if misses { format!("{:.2} mV held out", left * 1e3) } else { "its model's inductor current contradicting the measured one".to_string() };
                     selection_ended = format!(
@@ -577,9 +578,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // of the gap the path taken left (with no more values fitted, unless it ends at the floor),
     // or is as good (neither closes a material share of what the other leaves) and leaves less
     // with no more values fitted; else, at the floor, it is the final model's twin.
-    let apart = select::read_apart(data, nominal, &selected, &base, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+    let apart = select::read_apart(p, &selected, &base);
     let (mut twin, mut nominal_twin, mut read_apart) = (twin, nominal_twin, None);
-    let better_already = |a: &select::Apart| a.alike && a.read.in_place_of.as_ref().is_some_and(|p| p.better);
+    let better_already = |a: &select::Apart| a.alike && matches!(&a.read.against, Against::InPlaceOf(them) if them.better);
     let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| at_floor(&e));
     let fitted = |s: &[EffectFit]| s.iter().map(|e| e.ci95.len()).sum::<usize>();
     match apart {
@@ -593,7 +594,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             } else {
                 // (Forward only: a full path's backward step and joint refit cost 2-5 s more on
                 // the bench's several-effect boards, where vout's instant changed nothing.)
-                let (other, ended) = select::forward(data, nominal, &a.steps, &effects, select::MAX_EFFECTS, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline);
+                let (other, ended) = select::forward(p, &a.steps, &effects, select::MAX_EFFECTS);
                 (other, Some(ended))
             };
             let (left, other_left) = (selected.last().map_or(f64::INFINITY, |e| e.rms_after), other.last().map_or(f64::INFINITY, |e| e.rms_after));
@@ -634,8 +635,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     };
     let mut tested = final_test(&selected);
     if let Some(failed) = tested.0.as_ref().filter(|c| !c.consistent)
-        && let Some(added) =
-            select::for_cl(data, nominal, &mut selected, failed.hausman, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline, |f, cl, ci| check(f, cl, ci).ok())
+        && let Some(added) = select::for_cl(p, &mut selected, failed.hausman, |f, cl, ci| check(f, cl, ci).ok())
     {
         selection_ended = format!("{selection_ended}; then {added}");
         tested = final_test(&selected);
@@ -646,7 +646,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // A ceramic's bias law between the levels the data visits is not in the data: Cl under the
     // other law's shape too.
     let (mut preferred_circuit, mut preferred_residual) = (None, None);
-    let spread = BiasLawSpread::of(data, nominal, &selected, n_est, opts.holdout, &baseline).map(|(spread, alt)| {
+    let spread = BiasLawSpread::of(p, &selected).map(|(spread, alt)| {
         if spread.prefers_other() {
             select::at_final_values(&mut selected, &alt, nominal);
             preferred_circuit = Some(alt.fit.params);
@@ -657,7 +657,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // The final model read later than the period start, where the data says so: after the law's
     // swap, so that the instant is tested on the model whose Cl is reported.
     let reported_ci95 = selected.last().map(|l| spread.as_ref().map_or(l.cl.ci95, |s| s.reported(l.cl.estimate, l.cl.ci95).1));
-    let read_late = reported_ci95.and_then(|ci95| select::read_late(data, nominal, &selected, ci95, opts.nominal == Nominal::Switched, switched, n_est, opts.holdout, &baseline));
+    let read_late = reported_ci95.and_then(|ci95| select::read_late(p, &selected, ci95));
     // Or, read late on both channels, vout read apart from il alike to the effects beside it.
     let read_late = read_late.or(read_apart);
     // The final circuit with its law's shape (the other law's fit, where the data prefers it),

@@ -18,20 +18,21 @@
 //! finding as a pair, starts the forward selection as two steps: the effect as it fitted alone,
 //! then the drift judged on top of it.
 use buck_model::Params;
-use estimator::data::DataSet;
 use estimator::identify::Candidate;
 use estimator::model::Free;
 use estimator::simulated::{Criterion, fit_from};
 use rayon::prelude::*;
 
-use crate::effect::{Baseline, DRIFTING, EffectFit, SIMULATED_EFFECTS, SimulatedEffect, Trial, gross_miss, judge, reads_vout, residual, rms};
+use crate::effect::{DRIFTING, EffectFit, SIMULATED_EFFECTS, SimulatedEffect, Trial, gross_miss, judge, reads_vout, residual, rms};
+use crate::problem::Problem;
 use crate::select::{Extension, Stack, at_final_values, io_mean};
 
 /// The first two steps of the selection where no single effect is a finding (`effects`, the
 /// candidates judged against the nominal fit `base`) while the nominal misses grossly: the
 /// best pair of a circuit effect and a drift, where it is a finding as a pair, and the sentence
 /// that says so. `None` otherwise.
-pub(crate) fn first_steps(data: &DataSet, nominal: &Params, effects: &[EffectFit], base: &Candidate, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<(Vec<EffectFit>, String)> {
+pub(crate) fn first_steps(p: &Problem, effects: &[EffectFit], base: &Candidate) -> Option<(Vec<EffectFit>, String)> {
+    let Problem { data, nominal, n_est, holdout, baseline, .. } = *p;
     gross_miss(baseline.rms, baseline.floor, baseline.swing)?;
     let io = io_mean(data);
     let start = Params { cl: baseline.cl, ..*nominal };

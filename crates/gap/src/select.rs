@@ -26,10 +26,11 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::effect::{
-    Alike, Baseline, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, InPlaceOf, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH,
+    Against, Alike, Baseline, CHANNEL_SKEW_LATE, ClCheck, DELAYS, DRIFTING, EXPLAINS_ALL, EffectFit, IL_ALONE_EXPLAINED, InPlaceOf, MATERIAL_SHARE, RECIPROCAL_BIAS_LAW, ReadLate, SENSOR_FILTER_BOTH,
     SENSOR_FILTER_IL, SENSOR_FILTER_LATE, SIMULATED_EFFECTS, SKEW_STARTS, SimulatedEffect, Trial, calibrates_reading, cl_ran_onto_bound, delayed, explains_il, gross_miss, il_calibration,
     il_closed_by_an_instant, il_misses_materially, il_shows_a_filter, judge, reads_vout, record_bias_law, residual, rms, simulated_form, variance,
 };
+use crate::problem::Problem;
 
 /// The record's load current averaged over its samples [A] (what the extensions' probes are
 /// sized by).
@@ -633,7 +634,8 @@ pub(crate) fn topology_rival<'a>(effects: &'a [EffectFit], first: &EffectFit) ->
 /// with Cl at `cl`, where il misses materially and shows a filter ([`il_shows_a_filter`]), and
 /// a finding in il ([`EffectFit::judge_il_filter_in_il`]). Not behind a diode, whose blocked
 /// periods start with il at zero.
-pub(crate) fn il_filter_first(data: &DataSet, nominal: &Params, cl: f64, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<EffectFit> {
+pub(crate) fn il_filter_first(p: &Problem, cl: f64) -> Option<EffectFit> {
+    let Problem { data, nominal, n_est, holdout, baseline, .. } = *p;
     if nominal.asynchronous() || baseline.misses_materially(baseline.rms) != Some(false) {
         return None;
     }
@@ -849,19 +851,8 @@ fn screen(data: &DataSet, stack: &Stack, against: &Candidate, extensions: Vec<Ex
 /// a late ADC leaves `vout` within its noise floor once the delay is in, yet moves Cl by 20 %:
 /// immaterial on `vout`, material to Cl. `h_without` is the failed test's statistic. Returns
 /// what was added.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn for_cl(
-    data: &DataSet,
-    nominal: &Params,
-    selected: &mut Vec<EffectFit>,
-    h_without: f64,
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-    test: impl Fn(&[&EffectFit], f64, [f64; 2]) -> Option<ClCheck> + Sync,
-) -> Option<String> {
+pub(crate) fn for_cl(p: &Problem, selected: &mut Vec<EffectFit>, h_without: f64, test: impl Fn(&[&EffectFit], f64, [f64; 2]) -> Option<ClCheck> + Sync) -> Option<String> {
+    let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     // Only where vout shows nothing more: a model that still misses above the floor has had its
     // material effects tried, and what moves Cl there is the miss itself (widened for).
     let rms_left = selected.last().map_or(baseline.rms, |e| e.rms_after);
@@ -913,18 +904,8 @@ pub(crate) fn for_cl(
 /// is the switched simulator's). The [`screen`] spares the fit where the instant promises
 /// neither (7 % of the diagnosis time on harness seed 3232 and the bench sets when fitted
 /// everywhere).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn read_late(
-    data: &DataSet,
-    nominal: &Params,
-    selected: &[EffectFit],
-    cl_ci95: [f64; 2],
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> Option<ReadLate> {
+pub(crate) fn read_late(p: &Problem, selected: &[EffectFit], cl_ci95: [f64; 2]) -> Option<ReadLate> {
+    let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let last = selected.last()?;
     if !switched_data || !estimator::validate::identified(cl_ci95) {
         return None;
@@ -951,8 +932,7 @@ pub(crate) fn read_late(
         instant: name,
         value,
         value_ci95,
-        lr: Some([lr.0, lr.1]),
-        in_place_of: None,
+        against: Against::Lr([lr.0, lr.1]),
         rms_after: fit.rms_after,
         material: fit.material,
         cl: fit.cl.estimate,
@@ -970,18 +950,8 @@ pub(crate) fn read_late(
 /// ([`crate::effect::ReadLate`]); where it also closes a material share of the gap the final
 /// model leaves, it explains vout better with fewer effects. `base`: the nominal model's fit.
 /// Switched data and model, il recorded.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn read_apart(
-    data: &DataSet,
-    nominal: &Params,
-    selected: &[EffectFit],
-    base: &Candidate,
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> Option<Apart> {
+pub(crate) fn read_apart(p: &Problem, selected: &[EffectFit], base: &Candidate) -> Option<Apart> {
+    let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let last = selected.last()?;
     if !switched_data || data.il.is_none() || selected.len() < 2 {
         return None;
@@ -1021,8 +991,7 @@ pub(crate) fn read_apart(
         instant: name,
         value,
         value_ci95,
-        lr: None,
-        in_place_of: Some(InPlaceOf { effects: replaced.join(" + "), better }),
+        against: Against::InPlaceOf(InPlaceOf { effects: replaced.join(" + "), better }),
         rms_after: fit.rms_after,
         material: fit.material,
         cl: fit.cl.estimate,
@@ -1059,7 +1028,10 @@ impl Apart {
 
     /// The labels of the final model's effects it replaces.
     pub fn replaced(&self) -> &str {
-        self.read.in_place_of.as_ref().map_or("", |p| p.effects.as_str())
+        match &self.read.against {
+            Against::InPlaceOf(them) => them.effects.as_str(),
+            Against::Lr(_) => "",
+        }
     }
 
     /// vout's instant is apart from il's: its interval leaves out zero.
@@ -1083,7 +1055,8 @@ const BACKWARD_TRIES: usize = 2;
 /// (a drift of L or a series resistance taken first may only have stood in for a late reading
 /// or a dead time found later). At most one drop; an effect found in il is kept (its evidence is
 /// not in vout). Returns what was dropped, and why.
-pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<EffectFit>, switched_nominal: bool, n_est: usize, holdout: f64, baseline: &Baseline) -> Option<String> {
+pub(crate) fn backward(p: &Problem, selected: &mut Vec<EffectFit>) -> Option<String> {
+    let Problem { data, nominal, switched_nominal, n_est, holdout, baseline, .. } = *p;
     let last = selected.last()?;
     if selected.len() < 2 || baseline.floor.is_none() {
         return None;
@@ -1113,19 +1086,8 @@ pub(crate) fn backward(data: &DataSet, nominal: &Params, selected: &mut Vec<Effe
 ///
 /// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
 /// in the data (so an averaged model may add it).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn forward(
-    data: &DataSet,
-    nominal: &Params,
-    from: &[EffectFit],
-    alone: &[EffectFit],
-    max: usize,
-    switched_nominal: bool,
-    switched_data: bool,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> (Vec<EffectFit>, String) {
+pub(crate) fn forward(p: &Problem, from: &[EffectFit], alone: &[EffectFit], max: usize) -> (Vec<EffectFit>, String) {
+    let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let io_mean = io_mean(data);
     let mut selected = from.to_vec();
     let Some(last) = from.last() else { return (selected, "no first step".to_string()) };
@@ -1329,7 +1291,7 @@ pub(crate) fn forward(
             trials.extend(drifts.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
         let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.lock().map(|mut d| std::mem::take(&mut *d)).unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
-        let swap_fits = |tried: &[Swap]| swaps(data, nominal, &selected, &stack, tried, &against, switched_data, io_mean, n_est, holdout, baseline);
+        let swap_fits = |tried: &[Swap]| swaps(p, &selected, &stack, tried, &against, io_mean);
         // A late reading il shows that displaces an effect already taken (a probe's offset
         // standing in for a filter's lag) replaces it first, as it would have been taken first:
         // judged by il, as a late step is, whatever it does on vout (a load ESR that stood in for
@@ -1463,20 +1425,8 @@ const MAX_SWAPS: usize = 2;
 /// late among the newcomers). Each is the index in `selected` of the effect it replaces, and
 /// the newcomer's fit, candidate and model. An effect found in il is never swapped out (its
 /// evidence is not in vout).
-#[allow(clippy::too_many_arguments)]
-fn swaps(
-    data: &DataSet,
-    nominal: &Params,
-    selected: &[EffectFit],
-    stack: &Stack,
-    tried: &[Swap],
-    against: &Candidate,
-    switched_data: bool,
-    io_mean: f64,
-    n_est: usize,
-    holdout: f64,
-    baseline: &Baseline,
-) -> Vec<(usize, (EffectFit, Candidate, Stack))> {
+fn swaps(p: &Problem, selected: &[EffectFit], stack: &Stack, tried: &[Swap], against: &Candidate, io_mean: f64) -> Vec<(usize, (EffectFit, Candidate, Stack))> {
+    let Problem { data, nominal, switched_data, n_est, holdout, baseline, .. } = *p;
     let owner = |lost: Free| {
         let key = if lost == Free::RL { "series_resistance" } else { lost.name() };
         selected.iter().position(|e| e.params.contains_key(key) && !e.late_in_il())
