@@ -128,6 +128,35 @@ def test_the_adc_reads_each_channel_at_its_own_instant(fmu_dir, model_descriptio
     assert any("adc_vout_skew" in m for m in messages("skew-out")), messages("skew-out")
 
 
+def test_each_adc_channel_carries_its_own_white_noise(fmu_dir, model_description):
+    """`adc_noise` on vout and `adc_il_noise` on il, one `noise_seed`: read at the period start,
+    `vout_adc - vout` and `il_adc - il` (fmpy's instantaneous outputs) over 3000 periods have the
+    set standard deviations and zero means (4-sigma bounds of the estimates), are uncorrelated
+    with each other and from one period to the next (|r| < 4/sqrt(N)); a negative standard
+    deviation is refused, naming it."""
+    md = model_description
+    refs = [vr(md, n) for n in ("vout", "il", "vout_adc", "il_adc")]
+    n, sv, si = 3000, 3e-3, 20e-3
+    duty = prbs_duty(n)
+    with open_slave(fmu_dir, md, "il-noise", start={"mode": SWITCHED, "Cl": 4.7e-6, "adc_noise": sv, "adc_il_noise": si, "noise_seed": 11}) as fmu:
+        errors = []
+        for k, d in enumerate(duty):
+            fmu.setReal([vr(md, "duty")], [float(d)])
+            fmu.doStep(k * T, T)
+            vout, il, vout_adc, il_adc = fmu.getReal(refs)
+            errors.append((vout_adc - vout, il_adc - il))
+    dv, di = np.array(errors).T
+    for x, sigma in ((dv, sv), (di, si)):
+        assert abs(x.mean()) < 4 * sigma / np.sqrt(n), (sigma, x.mean())
+        assert abs(x.std() / sigma - 1) < 4 / np.sqrt(2 * n), (sigma, x.std())
+        assert abs(np.corrcoef(x[1:], x[:-1])[0, 1]) < 4 / np.sqrt(n), sigma
+    assert abs(np.corrcoef(dv, di)[0, 1]) < 4 / np.sqrt(n)
+    with pytest.raises(Exception):
+        with open_slave(fmu_dir, md, "il-noise-negative", start={"mode": SWITCHED, "adc_il_noise": -1e-3}):
+            pass
+    assert any("adc_il_noise" in m for m in messages("il-noise-negative")), messages("il-noise-negative")
+
+
 def test_the_adc_reads_each_channel_through_its_own_filter(fmu_dir, model_description):
     """`adc_filter` and `adc_il_filter`: the ADC's vout channel reads through an RC low-pass of
     tau and its il channel through one of tau/2, so after each period `vout_adc` and `il_adc`

@@ -473,6 +473,7 @@ impl Converter {
             VarId::AdcVfs => d.adc_vfs,
             VarId::AdcIfs => d.adc_ifs,
             VarId::AdcNoise => d.adc_noise,
+            VarId::AdcIlNoise => d.adc_il_noise,
             VarId::AdcDelay => d.adc_delay,
             VarId::AdcVoutSkew => d.adc_vout_skew,
             VarId::AdcFilter => d.adc_filter,
@@ -545,6 +546,7 @@ impl Converter {
                     VarId::AdcVfs => d.adc_vfs = value,
                     VarId::AdcIfs => d.adc_ifs = value,
                     VarId::AdcNoise => d.adc_noise = value,
+                    VarId::AdcIlNoise => d.adc_il_noise = value,
                     VarId::AdcDelay => d.adc_delay = value,
                     VarId::AdcVoutSkew => d.adc_vout_skew = value,
                     VarId::AdcFilter => d.adc_filter = value,
@@ -650,7 +652,7 @@ impl Converter {
                 }
                 if self.adc_pending[1] && instants[1] == event {
                     self.adc_pending[1] = false;
-                    self.digital.sample_il(self.x[0]);
+                    self.digital.sample_il(self.x[0], self.period_index);
                 }
             } else {
                 self.at_edge = true;
@@ -668,7 +670,7 @@ impl Converter {
                     self.digital.sample_vout(self.vout(), self.period_index);
                 }
                 if instants[1] == 0.0 {
-                    self.digital.sample_il(self.x[0]);
+                    self.digital.sample_il(self.x[0], self.period_index);
                 }
             }
             // What is left after an event within the snap tolerance is the master's rounding

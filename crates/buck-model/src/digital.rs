@@ -45,7 +45,11 @@ pub struct Digital {
     pub adc_ifs: f64,
     /// Standard deviation of white sensor noise on `vout` at the ADC input [V].
     pub adc_noise: f64,
-    /// Seed of that noise (the sequence is a pure function of seed and period index).
+    /// Standard deviation of white sensor noise on `il` at the ADC input [A], independent of
+    /// the noise on `vout`.
+    pub adc_il_noise: f64,
+    /// Seed of the noise on both channels (each sequence a pure function of seed and period
+    /// index).
     pub noise_seed: u64,
     /// Instant of the reading after each period start [s] (0: at the period start, the
     /// previous period's end).
@@ -82,6 +86,7 @@ impl Default for Digital {
             adc_vfs: 16.0,
             adc_ifs: 32.0,
             adc_noise: 0.0,
+            adc_il_noise: 0.0,
             noise_seed: 1,
             adc_delay: 0.0,
             adc_vout_skew: 0.0,
@@ -105,6 +110,9 @@ fn splitmix(mut z: u64) -> u64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
 }
+
+/// Mixed into the seed of the `il` channel's noise, so that its sequence is not `vout`'s.
+const IL_NOISE_STREAM: u64 = 0x696C_5F6E_6F69_7365; // "il_noise"
 
 /// Standard normal sample for `(seed, k)` (Box–Muller on two SplitMix64 uniforms).
 fn normal(seed: u64, k: u64) -> f64 {
@@ -194,7 +202,7 @@ impl Digital {
     /// through its channel's filter where there is one.
     pub fn sample(&mut self, vout: f64, il: f64, k: u64) {
         self.sample_vout(vout, k);
-        self.sample_il(il);
+        self.sample_il(il, k);
     }
 
     /// The conversion of period `k` of the `vout` channel alone (see [`Digital::sample`]).
@@ -204,9 +212,11 @@ impl Digital {
         self.reading[0] = quantize(noisy, 0.0, self.adc_vfs, self.adc_bits);
     }
 
-    /// The conversion of the `il` channel alone (see [`Digital::sample`]).
-    pub fn sample_il(&mut self, il: f64) {
-        self.reading[1] = quantize(self.il_channel(il), -self.adc_ifs, self.adc_ifs, self.adc_bits);
+    /// The conversion of period `k` of the `il` channel alone (see [`Digital::sample`]).
+    pub fn sample_il(&mut self, il: f64, k: u64) {
+        let il = self.il_channel(il);
+        let noisy = if self.adc_il_noise > 0.0 { il + self.adc_il_noise * normal(self.noise_seed ^ IL_NOISE_STREAM, k) } else { il };
+        self.reading[1] = quantize(noisy, -self.adc_ifs, self.adc_ifs, self.adc_bits);
     }
 
     /// The latest ADC reading `(vout, il)`.

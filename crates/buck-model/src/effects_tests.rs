@@ -1082,6 +1082,44 @@ fn the_adc_reads_each_channel_at_its_own_instant() {
     assert!(err.contains("adc_vout_skew") && err.contains("within the period"), "{err}");
 }
 
+/// Each ADC channel carries its own white noise (`adc_noise` on `vout`, `adc_il_noise` on
+/// `il`, one `noise_seed`): read at the period start, `vout_adc − vout` and `il_adc − il` over
+/// 4000 periods have the set standard deviations and zero means (4σ bounds of the estimates),
+/// are uncorrelated with each other and from one period to the next (|r| < 4/√N), and are the
+/// same sequences on a second run; with no noise set, each reading is the output itself.
+#[test]
+fn each_adc_channel_carries_its_own_white_noise() {
+    let (n, sv, si) = (4000, 3e-3, 20e-3);
+    let run = |vout_noise: f64, il_noise: f64| {
+        let mut conv = converter(Params { cl: 4.7e-6, ..Params::default() }, Mode::Switched, 0.5, 1.0);
+        conv.set(VarId::AdcNoise, vout_noise).unwrap();
+        conv.set(VarId::AdcIlNoise, il_noise).unwrap();
+        conv.set(VarId::NoiseSeed, 11.0).unwrap();
+        let mut errors = Vec::with_capacity(n);
+        for k in 0..n {
+            conv.set(VarId::Duty, if (k / 7) % 2 == 0 { 0.4 } else { 0.6 }).unwrap();
+            conv.step(T).unwrap();
+            errors.push([conv.get_real(VarId::VoutAdc) - conv.get_real(VarId::Vout), conv.get_real(VarId::IlAdc) - conv.get_real(VarId::Il)]);
+        }
+        errors
+    };
+    let noisy = run(sv, si);
+    let channel = |c: usize| noisy.iter().map(|e| e[c]).collect::<Vec<f64>>();
+    let (v, i) = (channel(0), channel(1));
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    let std = |x: &[f64]| (x.iter().map(|e| (e - mean(x)).powi(2)).sum::<f64>() / x.len() as f64).sqrt();
+    let corr = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| (a - mean(x)) * (b - mean(y))).sum::<f64>() / (x.len() as f64 * std(x) * std(y));
+    let nf = n as f64;
+    for (x, sigma, name) in [(&v, sv, "vout"), (&i, si, "il")] {
+        assert!(mean(x).abs() < 4.0 * sigma / nf.sqrt(), "{name}: mean {:e}", mean(x));
+        assert!((std(x) / sigma - 1.0).abs() < 4.0 / (2.0 * nf).sqrt(), "{name}: std {:e} for {sigma:e}", std(x));
+        assert!(corr(&x[1..], &x[..n - 1]).abs() < 4.0 / nf.sqrt(), "{name}: lag-1 correlation {}", corr(&x[1..], &x[..n - 1]));
+    }
+    assert!(corr(&v, &i).abs() < 4.0 / nf.sqrt(), "the channels' noises correlate: {}", corr(&v, &i));
+    assert_eq!(run(sv, si), noisy, "the same seed gives the same sequences");
+    assert!(run(0.0, 0.0).iter().all(|e| *e == [0.0, 0.0]), "without noise each reading is the output");
+}
+
 /// The ADC's channels read through their own first-order low-passes: `vout_adc` through the
 /// anti-alias filter (`adc_filter`, τ) and `il_adc` through the sense chain's (`adc_il_filter`,
 /// τ/2, or none). Each matches its filter integrated on 4000 steps a period (exact for a line

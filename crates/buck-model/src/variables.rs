@@ -65,6 +65,7 @@ pub enum VarId {
     PulseWidthDistortion,
     AdcIlFilter,
     AdcVoutSkew,
+    AdcIlNoise,
 }
 
 /// FMI causality.
@@ -178,7 +179,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::Dither, "duty_dither", Input, "1", (-1.0, 1.0), Some(0.0), "Added to the controller's duty, for excitation (control = 2)"),
     real(VarId::DutyApplied, "duty_applied", Output, "1", ANY, None, "Duty that drove the switch in the last latched period"),
     real(VarId::VoutAdc, "vout_adc", Output, "V", ANY, None, "The ADC's latest reading of vout, at the period start or adc_delay into the period (noise, quantization)"),
-    real(VarId::IlAdc, "il_adc", Output, "A", ANY, None, "The ADC's latest reading of il, at the period start or adc_delay into the period (quantization)"),
+    real(VarId::IlAdc, "il_adc", Output, "A", ANY, None, "The ADC's latest reading of il, at the period start or adc_delay into the period (noise, quantization)"),
     integer(VarId::Control, "control", (1, 2), 1, "Who sets the duty: 1 = open loop (duty input), 2 = closed loop (PID on vref - vout_adc, plus duty_dither)"),
     real(VarId::Kp, "kp", Parameter, "1/V", (0.0, 100.0), Some(0.08), "Controller proportional gain"),
     real(VarId::Ki, "ki", Parameter, "1/V", (0.0, 100.0), Some(0.008), "Controller integral gain per period"),
@@ -226,6 +227,7 @@ pub const VARIABLES: &[Variable] = &[
     real(VarId::PulseWidthDistortion, "pulse_width_distortion", Parameter, "s", (-1e-5, 1e-5), Some(0.0), "The high side's on-time beyond the PWM's duty T, signed: the gate drive's turn-off delay minus its turn-on delay; the on-time held within [0, T], none made at duty 0 (both modes)"),
     real(VarId::AdcIlFilter, "adc_il_filter", Parameter, "s", (0.0, 1.0), Some(0.0), "Time constant of the first-order low-pass in front of the ADC's il channel (a current-sense amplifier's bandwidth or the channel's anti-alias filter): il_adc reads il through it (0 = no filter)"),
     real(VarId::AdcVoutSkew, "adc_vout_skew", Parameter, "s", (-1.0, 1.0), Some(0.0), "How long after il the ADC converts vout, signed (a multiplexed ADC converts its channels one after the other): il_adc reads il at adc_delay, vout_adc and the controller read vout at adc_delay + adc_vout_skew, which must lie within the period (0 = one instant; switched mode only)"),
+    real(VarId::AdcIlNoise, "adc_il_noise", Parameter, "A", (0.0, 100.0), Some(0.0), "Standard deviation of white sensor noise on il at the ADC, independent of the noise on vout (same noise_seed)"),
 ];
 
 /// Units used by the table with their SI base-unit exponents `(kg, m, s, A)`.
