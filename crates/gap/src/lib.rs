@@ -492,6 +492,9 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             };
         }
     }
+    // A step, and a path, that leave nothing material above the floor.
+    let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
+    let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| at_floor(&e));
     // A path that ends materially above the floor, or with a model whose inductor current
     // contradicts the measured one: the converter's joint model from its nominal values (see
     // `joint::from_nominal`), where it closes a material share of the gap the path left (or, the
@@ -509,8 +512,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             // floor, it must be there too.
             let gap_left = if misses { left } else { baseline.rms };
             let better = |other: &Vec<EffectFit>| {
-                let ends_at_floor = other.last().is_some_and(|e| baseline.misses_materially(e.rms_after) == Some(false));
-                contradicts_il(other).is_none() && if misses { (other.len() <= selected.len() || ends_at_floor) && closes_of_left(other, left).is_some() } else { ends_at_floor }
+                contradicts_il(other).is_none() && if misses { (other.len() <= selected.len() || ends_at_floor(other)) && closes_of_left(other, left).is_some() } else { ends_at_floor(other) }
             };
             // Of the kind its first steps took: an effect of the kind (a dead time) taken while
             // going on past a sequence's length may stand in for what an earlier step took (a
@@ -539,7 +541,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // A path at the floor: the path from a first step nearly as good that puts Cl elsewhere
     // (see `select::twin`). Where it ends at the floor too, Cl's interval spans both; where it
     // also leaves less held out with no more effects, it is taken instead.
-    let at_floor = |e: &&EffectFit| baseline.misses_materially(e.rms_after) == Some(false);
     // (A circuit's first step: a late reading il shows has none.)
     let taken = effects.iter().find(|e| e.name == from).filter(|_| !from_late(from));
     // (Not one whose inductor current contradicts the measured one: the data tells it apart.)
@@ -581,7 +582,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let apart = select::read_apart(p, &selected, &base);
     let (mut twin, mut nominal_twin, mut read_apart) = (twin, nominal_twin, None);
     let better_already = |a: &select::Apart| a.alike && matches!(&a.read.against, Against::InPlaceOf(them) if them.better);
-    let ends_at_floor = |s: &[EffectFit]| s.last().is_some_and(|e| at_floor(&e));
     let fitted = |s: &[EffectFit]| s.iter().map(|e| e.ci95.len()).sum::<usize>();
     match apart {
         Some(a) if a.alike && !(better_already(&a) && a.fit().finding && a.skewed()) => read_apart = Some(a.read),

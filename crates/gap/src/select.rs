@@ -1082,10 +1082,9 @@ pub(crate) fn backward(p: &Problem, selected: &mut Vec<EffectFit>) -> Option<Str
 
 /// Forward selection on top of the findings `from` (the first step, or a sequence to go on
 /// with), up to `max` effects: the findings in the order they were added, and why the sequence
-/// ended.
-///
-/// `switched_nominal`: the nominal model is the switched circuit; `switched_data`: the ripple is
-/// in the data (so an averaged model may add it).
+/// ended. `alone`: the candidates each fitted on the nominal (the first step's rivals, and what
+/// a step may take first where it alone left materially less). On switched data
+/// ([`Problem::switched_data`]) an averaged nominal may add the ripple.
 pub(crate) fn forward(p: &Problem, from: &[EffectFit], alone: &[EffectFit], max: usize) -> (Vec<EffectFit>, String) {
     let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let io_mean = io_mean(data);
