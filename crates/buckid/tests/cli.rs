@@ -1554,6 +1554,9 @@ fn a_failed_interval_test_widens_the_other_laws_cl_too() {
 /// the joint refit puts C and Rc at their true values, with Cl not identified beside them; its
 /// pruning then drops C's drift, which Cl takes up, and the model left had Cl at
 /// 38.1 [36.5, 39.9] µF. The model pruned to it is as good a model, whose Cl the interval spans.
+/// (That twin is the path's to find: a path that fits the switches' resistance before any drift
+/// lands its joint refit at C within tolerance and Cl 37.7 [36.8, 39.2] µF, the other end of a
+/// C–Cl ridge no local interval covers; see the README's fiftieth session.)
 #[test]
 fn a_drift_pruned_into_cl_leaves_cl_not_identified() {
     let (dx, truth) = diagnose_third("lab-several-7502");
