@@ -111,6 +111,12 @@ fn splitmix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// `value` with white noise of standard deviation `sigma` drawn for `(seed, k)` ([`normal`]);
+/// `value` itself, bit for bit, without noise.
+fn with_noise(value: f64, sigma: f64, seed: u64, k: u64) -> f64 {
+    if sigma > 0.0 { value + sigma * normal(seed, k) } else { value }
+}
+
 /// Mixed into the seed of the `il` channel's noise, so that its sequence is not `vout`'s.
 const IL_NOISE_STREAM: u64 = 0x696C_5F6E_6F69_7365; // "il_noise"
 
@@ -208,14 +214,14 @@ impl Digital {
     /// The conversion of period `k` of the `vout` channel alone (see [`Digital::sample`]).
     pub fn sample_vout(&mut self, vout: f64, k: u64) {
         let vout = self.vout_channel(vout);
-        let noisy = if self.adc_noise > 0.0 { vout + self.adc_noise * normal(self.noise_seed, k) } else { vout };
+        let noisy = with_noise(vout, self.adc_noise, self.noise_seed, k);
         self.reading[0] = quantize(noisy, 0.0, self.adc_vfs, self.adc_bits);
     }
 
     /// The conversion of period `k` of the `il` channel alone (see [`Digital::sample`]).
     pub fn sample_il(&mut self, il: f64, k: u64) {
         let il = self.il_channel(il);
-        let noisy = if self.adc_il_noise > 0.0 { il + self.adc_il_noise * normal(self.noise_seed ^ IL_NOISE_STREAM, k) } else { il };
+        let noisy = with_noise(il, self.adc_il_noise, self.noise_seed ^ IL_NOISE_STREAM, k);
         self.reading[1] = quantize(noisy, -self.adc_ifs, self.adc_ifs, self.adc_bits);
     }
 

@@ -246,6 +246,14 @@ impl ReadLate {
     pub(crate) fn spanned(&self, ci95: [f64; 2]) -> [f64; 2] {
         spanning(ci95, &[self.ci95])
     }
+
+    /// The final model's effects it is fitted instead of, where it is.
+    pub fn in_place_of(&self) -> Option<&InPlaceOf> {
+        match &self.against {
+            Against::InPlaceOf(them) => Some(them),
+            Against::Lr(_) => None,
+        }
+    }
 }
 
 impl std::fmt::Display for ReadLate {

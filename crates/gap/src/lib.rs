@@ -372,6 +372,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // Forward selection from a first step, then the backward step and the joint refit; a full
     // sequence that the joint refit does not settle also goes on, one effect at a time (the
     // joint refit frees no ESL or bias law).
+    // What a sequence leaves held out (RMS; nothing selected: no model to leave anything).
+    let left = |s: &[EffectFit]| s.last().map_or(f64::INFINITY, |e| e.rms_after);
     let path = |first: &[EffectFit]| {
         let forward = |from: &[EffectFit], max| select::forward(p, from, &effects, max);
         let (mut selected, mut ended) = forward(first, select::MAX_EFFECTS);
@@ -381,7 +383,6 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         let greedy = selected.clone();
         let joint = joint::refit(p, &mut selected);
-        let left = |s: &[EffectFit]| s.last().map_or(f64::INFINITY, |e| e.rms_after);
         // A joint model that leaves nothing material is kept; else the joint model is kept unless
         // going on leaves clearly less.
         let settled = joint.is_some() && baseline.misses_materially(left(&selected)) == Some(false);
@@ -581,7 +582,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     // with no more values fitted; else, at the floor, it is the final model's twin.
     let apart = select::read_apart(p, &selected, &base);
     let (mut twin, mut nominal_twin, mut read_apart) = (twin, nominal_twin, None);
-    let better_already = |a: &select::Apart| a.alike && matches!(&a.read.against, Against::InPlaceOf(them) if them.better);
+    let better_already = |a: &select::Apart| a.alike && a.read.in_place_of().is_some_and(|them| them.better);
     let fitted = |s: &[EffectFit]| s.iter().map(|e| e.ci95.len()).sum::<usize>();
     match apart {
         Some(a) if a.alike && !(better_already(&a) && a.fit().finding && a.skewed()) => read_apart = Some(a.read),
@@ -597,7 +598,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
                 let (other, ended) = select::forward(p, &a.steps, &effects, select::MAX_EFFECTS);
                 (other, Some(ended))
             };
-            let (left, other_left) = (selected.last().map_or(f64::INFINITY, |e| e.rms_after), other.last().map_or(f64::INFINITY, |e| e.rms_after));
+            let (left, other_left) = (left(&selected), left(&other));
             let no_more = fitted(&other) <= fitted(&selected);
             let better = closes_of_left(&other, left).is_some() && (no_more || ends_at_floor(&other));
             let as_good = closes_of_left(&selected, other_left).is_none() && no_more && other_left < left;

@@ -1028,10 +1028,7 @@ impl Apart {
 
     /// The labels of the final model's effects it replaces.
     pub fn replaced(&self) -> &str {
-        match &self.read.against {
-            Against::InPlaceOf(them) => them.effects.as_str(),
-            Against::Lr(_) => "",
-        }
+        self.read.in_place_of().map_or("", |them| them.effects.as_str())
     }
 
     /// vout's instant is apart from il's: its interval leaves out zero.
