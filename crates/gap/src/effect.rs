@@ -138,7 +138,8 @@ pub struct ClMove {
     /// For a final model at the floor: an equally good model from another first step
     /// ([`crate::select::twin`]) whose Cl lies outside its interval; else the model the joint
     /// refit pruned to the final one, where the effect pruned was physical and Cl lies outside
-    /// (a drift of C that Cl took up). The interval spans both.
+    /// (a drift of C that Cl took up); or the final model with Cl's capacitance moved into C,
+    /// as good held out, where Cl lies outside ([`crate::ridge`]). The interval spans both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub twin: Option<Twin>,
     /// For a final model read at the period start: the same model with the reading's instant

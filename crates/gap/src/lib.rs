@@ -20,6 +20,7 @@ mod options;
 mod pairs;
 mod problem;
 mod quantization;
+mod ridge;
 mod select;
 mod tested;
 
@@ -661,6 +662,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let read_late = reported_ci95.and_then(|ci95| select::read_late(p, &selected, ci95));
     // Or, read late on both channels, vout read apart from il alike to the effects beside it.
     let read_late = read_late.or(read_apart);
+    // The final model with Cl's capacitance moved into C, as good (see `ridge`).
+    let ridge_twin = reported_ci95.and_then(|ci95| ridge::twin(p, &selected, ci95));
     // The final circuit with its law's shape (the other law's fit, where the data prefers it),
     // run on the data's inputs where that tells something: a ceramic's operating point (a law
     // the nominal brings keeps its own reference), a diode buck's share of DCM periods.
@@ -713,6 +716,11 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         // The joint model from the nominal values, as good as the path, where it puts Cl outside
         // the interval even so (spanned after any other twin, and said in its place).
         if let Some(twin) = nominal_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
+            last.cl.ci95 = twin.spanned(last.cl.ci95);
+            last.cl.twin = Some(twin);
+        }
+        // The other end of the C–Cl ridge, as good, where Cl lies outside the interval even so.
+        if let Some(twin) = ridge_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
         }

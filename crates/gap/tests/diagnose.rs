@@ -1072,3 +1072,34 @@ fn an_input_the_converter_saw_is_kept_as_recorded() {
     assert_eq!(dx.verdict, "none", "{}", dx.selection_ended);
     assert_final_cl_holds(&dx, CL);
 }
+
+/// A 24 V lab buck (67 µH, 330 µF with 32 mΩ, 118 kHz) with 60 mΩ switches at 1 A, its C
+/// `c_share` of the nominal and `cl` of load, 4 mV of noise: diagnosed against the nominal.
+fn lab_buck_on_the_ridge(c_share: f64, cl: f64) -> gap::Diagnosis {
+    let nominal = Params { l: 67e-6, rl: 0.085, c: 330e-6, rc: 0.032, fs: 118e3, ..Params::default() };
+    let truth = Params { cl, c: nominal.c * c_share, switch_resistance: 0.06, ..nominal };
+    let exp = Experiment { samples: 3001, noise_vout: 4e-3, noise_seed: 14, io: 1.0, vin: 24.0, ..Experiment::default() };
+    let mut d = run(&mut ModelPlant::with_converter_in_open_loop(plant(truth, Mode::Switched)), &exp).unwrap();
+    d.meta.retain(|k, _| k == "fs" || k == "U");
+    diagnose(&d, &nominal, &DiagnoseOptions { nominal: gap::Nominal::Switched, ..DiagnoseOptions::default() }).unwrap()
+}
+
+/// A load small beside a drifted output capacitor lies on the C–Cl ridge (`gap::ridge`): 1.3 µF
+/// beside C 11 % high ended on a load ESR and the switches with Cl 37.8 µF, C's drift taken up
+/// by Cl; 20 µF beside it on four stand-ins with Cl 56.3 [46.1, 56.8] µF, confidently. The
+/// ridge's probe finds as good a model with C drifted, and the interval spans both: 1.3 µF
+/// beside C +11.0 % (Cl's interval reaching down to it), 20 µF as not identified. With C at its
+/// nominal the probe finds no twin, and Cl stays within a few per cent.
+#[test]
+fn a_load_small_beside_a_drifted_c_spans_the_ridge() {
+    let small = lab_buck_on_the_ridge(1.11, 1.3e-6);
+    assert_final_cl_holds(&small, 1.3e-6);
+    let twin = small.selected.last().and_then(|e| e.cl.twin.as_ref()).expect("the ridge's twin");
+    let drift = twin.selected.iter().find_map(|l| l.strip_prefix("param_drift (C) ")).expect("C's drift in the twin");
+    let percent: f64 = drift.trim_end_matches(" %").parse().unwrap();
+    assert!((percent - 11.0).abs() < 1.0, "C {drift} for +11 %: {twin}");
+    assert_final_cl_holds(&lab_buck_on_the_ridge(1.11, 20e-6), 20e-6);
+    let nominal_c = lab_buck_on_the_ridge(1.0, 1.3e-6);
+    let (_, [lo, hi], test) = nominal_c.final_cl();
+    assert!(lo <= 1.3e-6 && 1.3e-6 <= hi && hi < 1.1 * lo, "Cl [{lo:e}, {hi:e}] for 1.3 µF ({test})");
+}
