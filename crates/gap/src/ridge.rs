@@ -14,7 +14,7 @@ use estimator::model::Free;
 use estimator::validate::chi2_99;
 use rayon::prelude::*;
 
-use crate::effect::{EffectFit, MAX_DRIFT, Twin, residual, rms};
+use crate::effect::{EffectFit, MAX_DRIFT, Twin, gross_miss, residual, rms};
 use crate::problem::Problem;
 use crate::select::Stack;
 
@@ -40,7 +40,8 @@ fn as_good(rms: f64, against: f64, n: usize) -> bool {
 pub(crate) fn twin(p: &Problem, selected: &[EffectFit], ci95: [f64; 2]) -> Option<Twin> {
     let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let last = selected.last()?;
-    if !switched_data || !estimator::validate::identified(ci95) {
+    // (A final model that misses grossly has no Cl to span: `Baseline::judged_by_miss`.)
+    if !switched_data || !estimator::validate::identified(ci95) || gross_miss(last.rms_after, baseline.floor, baseline.swing).is_some() {
         return None;
     }
     let fits: Vec<&EffectFit> = selected.iter().collect();
