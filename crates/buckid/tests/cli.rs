@@ -1514,18 +1514,22 @@ fn identify_tests_the_interval_on_a_circuits_data() {
     assert!(stdout.contains("not identified"), "{stdout}");
 }
 
-/// A lab buck with five effects whose selection ended with L −39 % and Cl 16 times too large,
-/// the LC resonance kept (`gap::current`): 234 [229, 241] µF for 14.4 µF. Its model's inductor
-/// current matches the measured one only through a probe gain of ×0.60, so its impedance, and
-/// its Cl, is not the converter's: Cl is not identified, and the JSON says why.
+/// A lab buck with five effects (third generator, seed 4101) whose selection had ended with
+/// L −39 % and Cl 16 times too large, the LC resonance kept: 234 [229, 241] µF for 14.4 µF. Its
+/// model's inductor current matched the measured one only through a probe gain of ×0.60, so
+/// its Cl was not identified (`gap::current`, whose unit tests hold that case). Since the
+/// fifty-first session, where the model misses grossly every extension the screen passed over
+/// is fitted: the path takes the switches, an ESL and the late reading instead of L's drift,
+/// 6.2 mV held out against 14.7, and its current contradicts nothing. It still misses, its
+/// interval test fails, and Cl 10.4 µF spans a factor of 80 holding the truth: not identified.
 #[test]
-fn a_model_with_the_wrong_impedance_is_not_identified() {
-    let (dx, _) = diagnose_third("lab-several-4101");
-    let cl = &dx["selected"].as_array().and_then(|s| s.last()).expect("a selection")["cl"];
-    let upper = cl["ci95"][1].as_f64();
-    assert!(upper.is_none_or(|u| !u.is_finite()), "{cl}");
-    let gain = cl["current_misfit"]["probe_gain"].as_f64().expect("the current's misfit");
-    assert!((gain - 1.0).abs() > gap::PROBE_GAIN_TOLERANCE, "{cl}");
+fn a_lab_buck_with_five_effects_is_not_identified() {
+    let (dx, truth) = diagnose_third("lab-several-4101");
+    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("a selection");
+    let cl = &last["cl"];
+    let [lo, hi] = assert_cl_holds_truth(cl, &truth);
+    assert!(hi >= 10.0 * lo, "Cl identified: {cl}");
+    assert!(last["rms_after"].as_f64().unwrap() < 10e-3, "{}", last["rms_after"]);
 }
 
 /// A ceramic that follows neither of the model's two bias laws (the third generator's
