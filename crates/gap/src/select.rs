@@ -1159,9 +1159,8 @@ pub(crate) fn forward(p: &Problem, from: &[EffectFit], alone: &[EffectFit], max:
             Some((fit.into_step(), cand, x.stack.clone()))
         };
         let mut trials = Vec::new();
-        // Where the model so far misses grossly, the extensions the screen may pass over (see
-        // below).
-        let mut unscreened = Vec::new();
+        // The drifts of the circuit's own values, which the screen may pass over (see below).
+        let mut drifts = Vec::new();
         // An effect that alone left materially less than the model so far (see `proven_alone`).
         let mut proven = None;
         // The extensions along Cl, which the screen may pass over (see below).
@@ -1230,10 +1229,10 @@ pub(crate) fn forward(p: &Problem, from: &[EffectFit], alone: &[EffectFit], max:
                 }
                 t
             };
-            proven = proven_alone(&mut rest, alone, last, baseline);
             if gross_miss(against_rms, baseline.floor, baseline.swing).is_some() {
-                unscreened.clone_from(&rest);
+                drifts = rest.iter().filter(|x| x.name == "param_drift").cloned().collect();
             }
+            proven = proven_alone(&mut rest, alone, last, baseline);
             passed_over = rest.iter().filter(|x| ALONG_CL.contains(&x.name)).cloned().collect();
             let (late, screened) = rayon::join(late_trials, || screen(data, &stack, &against, rest, gap_power, 0.0, n_est));
             (trials, extensions) = (late, screened);
@@ -1278,17 +1277,14 @@ pub(crate) fn forward(p: &Problem, from: &[EffectFit], alone: &[EffectFit], max:
         if !settled && nothing_taken(&trials) {
             trials.extend(readings.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
-        // A model that misses grossly is no place to linearize: a diode buck in deep DCM with L
-        // 18 % low had its Cl run to 906 µF to hide the charge it missed, where the 1 % probe of
-        // L promised nothing and L's fit closed 99.99 % of the gap; a harness diode buck in DCM
-        // half the time, read late, whose screen passed over every circuit effect, stopped ten
-        // floors up with only the drifts fitted (12.7 mV), where the switch node's ring and the
-        // diode's slope resistance leave 2.9. There, when nothing screened is material, every
-        // extension not yet fitted is.
-        if !unscreened.is_empty() && nothing_taken(&trials) {
+        // A model that misses grossly is no place to linearize a drift: a diode buck in deep
+        // DCM with L 18 % low had its Cl run to 906 µF to hide the charge it missed, where the
+        // 1 % probe of L promised nothing and L's fit closed 99.99 % of the gap. There,
+        // when nothing screened is material, the drifts of L, C and Rc not yet fitted are.
+        if !drifts.is_empty() && nothing_taken(&trials) {
             let made = fits_so_far();
-            unscreened.retain(|x| !made.iter().any(|(name, added)| *name == x.name && added.as_slice() == x.added()));
-            trials.extend(unscreened.par_iter().filter_map(try_one).collect::<Vec<_>>());
+            drifts.retain(|x| !made.iter().any(|(name, added)| *name == "param_drift" && added.as_slice() == x.added()));
+            trials.extend(drifts.par_iter().filter_map(try_one).collect::<Vec<_>>());
         }
         let (late, others): (Vec<Swap>, Vec<Swap>) = displaced.lock().map(|mut d| std::mem::take(&mut *d)).unwrap_or_default().into_iter().partition(|t| t.added.contains(&Free::SampleDelay));
         let swap_fits = |tried: &[Swap]| swaps(p, &selected, &stack, tried, &against, io_mean);
