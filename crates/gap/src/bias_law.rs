@@ -14,7 +14,7 @@ use estimator::identify::Candidate;
 use estimator::validate::chi2_99;
 use serde::Serialize;
 
-use crate::effect::{EffectFit, residual, rms};
+use crate::effect::{EffectFit, held_out_likelihood_ratio, residual, rms};
 use crate::problem::Problem;
 use crate::select::Stack;
 
@@ -59,7 +59,7 @@ impl BiasLawSpread {
         let alt = stack.fit(data, &[Params { cap_bias_law: law.other(), ..stack.params }], n_est, holdout).ok()?;
         let cl = alt.fit.estimate("Cl")?;
         let rms_other = rms(&residual(&alt));
-        let likelihood_ratio = (data.len() - n_est) as f64 * (rms_other / last.rms_after).ln() * 2.0;
+        let likelihood_ratio = held_out_likelihood_ratio(rms_other, last.rms_after, data.len() - n_est);
         let fits_to_floor = baseline.misses_above_floor(rms_other.min(last.rms_after)).map(|misses| !misses);
         let spread = Self {
             law: law.name(),

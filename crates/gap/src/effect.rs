@@ -968,6 +968,12 @@ pub fn gap_above(rms: f64, floor: f64) -> bool {
     rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
 }
 
+/// The likelihood ratio, on `held_out` samples, of a model leaving `rms` held out against one
+/// leaving `against` (Gaussian residuals): `2·n·ln(rms/against)`, positive where it leaves more.
+pub(crate) fn held_out_likelihood_ratio(rms: f64, against: f64, held_out: usize) -> f64 {
+    held_out as f64 * (rms / against).ln() * 2.0
+}
+
 /// The circuit values a `param_drift` frees, one at a time: the passives the design table gives
 /// a tolerance for.
 pub(crate) const DRIFTING: [Free; 3] = [Free::L, Free::C, Free::Rc];

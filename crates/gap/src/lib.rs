@@ -713,16 +713,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
             last.cl.ci95 = twin.spanned(last.cl.ci95);
             last.cl.twin = Some(twin);
         }
-        // The joint model from the nominal values, as good as the path, where it puts Cl outside
-        // the interval even so (spanned after any other twin, and said in its place).
-        if let Some(twin) = nominal_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
-            last.cl.ci95 = twin.spanned(last.cl.ci95);
-            last.cl.twin = Some(twin);
-        }
-        // The other end of the C–Cl ridge, as good, where Cl lies outside the interval even so.
-        if let Some(twin) = ridge_twin.filter(|t| !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&t.cl)) {
-            last.cl.ci95 = twin.spanned(last.cl.ci95);
-            last.cl.twin = Some(twin);
+        // The joint model from the nominal values, as good as the path, then the other end of
+        // the C–Cl ridge, each where it puts Cl outside the interval even so (spanned after any
+        // other twin, and said in its place).
+        for twin in [nominal_twin, ridge_twin].into_iter().flatten() {
+            if !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&twin.cl) {
+                last.cl.ci95 = twin.spanned(last.cl.ci95);
+                last.cl.twin = Some(twin);
+            }
         }
         let [lo, hi] = last.cl.ci95;
         if let Some(late) = read_late.filter(|late| estimator::validate::identified([lo, hi]) && !(lo..=hi).contains(&late.cl)) {

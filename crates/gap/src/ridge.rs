@@ -14,7 +14,7 @@ use estimator::model::Free;
 use estimator::validate::chi2_99;
 use rayon::prelude::*;
 
-use crate::effect::{EffectFit, MAX_DRIFT, Twin, gross_miss, residual, rms};
+use crate::effect::{EffectFit, MAX_DRIFT, Twin, gross_miss, held_out_likelihood_ratio, residual, rms};
 use crate::problem::Problem;
 use crate::select::Stack;
 
@@ -25,12 +25,12 @@ use crate::select::Stack;
 const MOVED_INTO_C: [f64; 2] = [0.5, 0.95];
 
 /// Whether a model leaving `rms` held out (over `n` samples) is as good as one leaving `against`:
-/// the likelihood ratio of the other on the held-out data, `n·ln(rms²/against²)`, within its 99 %
-/// point for one parameter. Its held-out residual a hair above the final model's, a probe is as
+/// the likelihood ratio of the other on the held-out data ([`held_out_likelihood_ratio`]) within
+/// its 99 % point for one parameter. Its held-out residual a hair above the final model's, a probe is as
 /// good (our plant's 20 µF beside C 11 % high: 3.8792 mV against 3.8790); 3 % more power over
 /// 900 samples (a point-of-load buck's probe, C +14.6 % where C is at its nominal) is not.
 fn as_good(rms: f64, against: f64, n: usize) -> bool {
-    n as f64 * (rms / against).powi(2).ln() <= chi2_99(1)
+    held_out_likelihood_ratio(rms, against, n) <= chi2_99(1)
 }
 
 /// The final model `selected` refitted with C free from Cl's capacitance moved into C (from each
@@ -52,19 +52,20 @@ pub(crate) fn twin(p: &Problem, selected: &[EffectFit], ci95: [f64; 2]) -> Optio
     if !stack.free.contains(&Free::C) {
         stack.free.push(Free::C);
     }
+    // The final model's effects, C's drift (where it has one) left to be named with its new value.
+    let kept: Vec<String> = selected.iter().map(EffectFit::label).filter(|l| l != "param_drift (C)").collect();
     let probe = |share: &f64| {
-        let cl = last.cl.estimate;
-        let start = Params { c: stack.params.c + share * cl, cl: (1.0 - share) * cl, ..stack.params };
+        let start = Params { c: stack.params.c + share * last.cl.estimate, cl: (1.0 - share) * last.cl.estimate, ..stack.params };
         let probe = stack.fit(data, &[start], n_est, holdout).ok()?;
         let rms_after = rms(&residual(&probe));
         let c = probe.fit.params.c;
         let c_moved = (c / stack.params.c - 1.0).abs() > baseline.tolerance && (c / nominal.c - 1.0).abs() <= MAX_DRIFT;
         let (cl, ci95_probe) = probe.fit.estimate("Cl").map_or((f64::NAN, [0.0, f64::INFINITY]), |e| (e.value, [e.ci95.0, e.ci95.1]));
         let outside = !(ci95[0]..=ci95[1]).contains(&cl);
-        // (C's drift, where the final model has one, named once with its new value.)
-        let mut labels: Vec<String> = selected.iter().map(EffectFit::label).filter(|l| l != "param_drift (C)").collect();
-        labels.push(format!("param_drift (C) {:+.1} %", 100.0 * (c / nominal.c - 1.0)));
-        (as_good(rms_after, last.rms_after, baseline.held_out) && c_moved && outside).then_some(Twin { selected: labels, rms_after, cl, ci95: ci95_probe })
+        (as_good(rms_after, last.rms_after, baseline.held_out) && c_moved && outside).then(|| {
+            let drift = format!("param_drift (C) {:+.1} %", 100.0 * (c / nominal.c - 1.0));
+            Twin { selected: kept.iter().cloned().chain([drift]).collect(), rms_after, cl, ci95: ci95_probe }
+        })
     };
     MOVED_INTO_C.par_iter().filter_map(probe).collect::<Vec<_>>().into_iter().min_by(|a, b| a.rms_after.total_cmp(&b.rms_after))
 }
