@@ -111,7 +111,7 @@ def test_two_first_steps_that_end_at_the_floor_alike_both_hold_cl(buckid_bin, tm
     esr = dx["selected"][0]["params"]["load_esr"]
     assert abs(esr / truth["circuit"]["rcl"] - 1) < 0.05, (esr, truth["circuit"]["rcl"])
     cl = dx["selected"][-1]["cl"]
-    twin = cl["twin"]
+    twin = cl["twins"][0]
     assert twin["selected"][0] == "param_drift (L)", twin
     lo, hi = cl["ci95"]
     assert lo <= twin["cl"] <= hi and lo <= truth["cl_true"] <= hi, (lo, hi, twin["cl"], truth["cl_true"])

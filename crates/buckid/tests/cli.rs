@@ -1073,16 +1073,24 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
 /// from the joint refit beside Cl: Cl 11.0 [10.7, 11.2] µF, five times the truth and confident.
 /// The converter's joint model from its nominal values, which the path's miss asks for, is as
 /// good held out (1.532 mV against 1.534) with C +12 %, and puts Cl at 2.4 µF: the data does
-/// not tell the two apart, and Cl's interval spans both, holding the truth.
+/// not tell the two apart, and Cl's interval spans both, holding the truth. The model the
+/// joint refit pruned to the path's (10.9 µF) is a twin too: both are named, each inside the
+/// interval (the JSON's `cl.twins`, once a single `cl.twin` that the later replaced).
 #[test]
 fn a_joint_model_from_the_nominal_values_as_good_as_the_path_spans_cl() {
     let (dx, truth) = diagnose_third("pol-several-10102");
     let last = dx["selected"].as_array().unwrap().last().unwrap();
-    let twin = &last["cl"]["twin"];
-    let names: Vec<&str> = twin["selected"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
-    assert!(names.contains(&"param_drift (C)") && !names.contains(&"sensor_gain"), "{names:?}");
+    let names = |twin: &serde_json::Value| -> Vec<String> { twin["selected"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string()).collect() };
+    let twins = last["cl"]["twins"].as_array().expect("Cl's twins");
+    let twin = twins.iter().find(|t| names(t).contains(&"param_drift (C)".to_string())).expect("a twin with C's drift");
+    assert!(!names(twin).contains(&"sensor_gain".to_string()), "{twin}");
     assert!(twin["rms_after"].as_f64().unwrap() <= last["rms_after"].as_f64().unwrap(), "{twin}");
-    assert_final_cl_holds_truth(&dx, &truth, 10.0);
+    let [lo, hi] = assert_final_cl_holds_truth(&dx, &truth, 10.0);
+    assert_eq!(twins.len(), 2, "the pruning's twin and the nominal values' both named: {twins:?}");
+    for t in twins {
+        let cl = t["cl"].as_f64().unwrap();
+        assert!(lo <= cl && cl <= hi, "twin's Cl {cl:e} outside [{lo:e}, {hi:e}]: {t}");
+    }
 }
 
 /// An independent-harness buck with a 2.3 nH ESL behind its main capacitor, 2.12 µF of load,
@@ -1563,8 +1571,8 @@ fn a_drift_pruned_into_cl_leaves_cl_not_identified() {
     let (dx, truth) = diagnose_third("lab-several-7502");
     let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
     let cl = &last["cl"];
-    let twin = &cl["twin"];
-    assert!(twin["selected"].as_array().is_some_and(|s| s.iter().any(|e| e == "param_drift (C)")), "{cl}");
+    let twins = cl["twins"].as_array().expect("Cl's twins");
+    assert!(twins.iter().any(|t| t["selected"].as_array().is_some_and(|s| s.iter().any(|e| e == "param_drift (C)"))), "{cl}");
     assert_cl_holds_truth(cl, &truth);
 }
 

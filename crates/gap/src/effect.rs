@@ -139,9 +139,10 @@ pub struct ClMove {
     /// ([`crate::select::twin`]) whose Cl lies outside its interval; else the model the joint
     /// refit pruned to the final one, where the effect pruned was physical and Cl lies outside
     /// (a drift of C that Cl took up); or the final model with Cl's capacitance moved into C,
-    /// as good held out, where Cl lies outside ([`crate::ridge`]). The interval spans both.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub twin: Option<Twin>,
+    /// as good held out, where Cl lies outside ([`crate::ridge`]). The interval spans each, and
+    /// each is named, in the order it widened the interval.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub twins: Vec<Twin>,
     /// For a final model read at the period start: the same model with the reading's instant
     /// fitted, where that instant is significant and Cl lies outside the interval; for one read
     /// late on both channels, with vout's own instant fitted ([`ReadLate`]). The interval spans
@@ -314,7 +315,7 @@ impl ClMove {
         if let Some(v) = self.operating_point {
             test += &format!("; read at the operating point, the time-averaged vout of {v:.3} V (the samples' mean is one phase of the ripple)");
         }
-        if let Some(twin) = &self.twin {
+        for twin in &self.twins {
             test += &format!("; {twin}");
         }
         if let Some(late) = &self.read_late {
@@ -387,7 +388,7 @@ impl ClMove {
             misses_by_floors: None,
             deep_dcm_miss: None,
             operating_point: None,
-            twin: None,
+            twins: Vec::new(),
             read_late: None,
             current_misfit: None,
             probe_exact: None,

@@ -489,7 +489,7 @@ fn settle(p: &Problem, mut stack: Stack, mut cand: Candidate, mut groups: Vec<Gr
                 0.0
             }
         };
-        last.cl.twin = pruned.into_iter().filter(|t| far(t) > 0.0).max_by(|a, b| far(a).total_cmp(&far(b)));
+        last.cl.twins = pruned.into_iter().filter(|t| far(t) > 0.0).max_by(|a, b| far(a).total_cmp(&far(b))).into_iter().collect();
     }
     Some((out, dropped))
 }

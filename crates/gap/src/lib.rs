@@ -621,7 +621,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     }
     // A model the joint refit pruned to this one that puts Cl elsewhere (see `joint::refit`):
     // its interval is spanned too, where no path's twin is.
-    let pruned_twin = selected.last_mut().and_then(|e| e.cl.twin.take());
+    let pruned_twin = selected.last_mut().and_then(|e| std::mem::take(&mut e.cl.twins).pop());
     // Cl's interval of the final model, tested against the high-pass fit (switched data only:
     // the test refits with the switched plant simulator): the test, or why it was not made.
     let check = |fits: &[&EffectFit], cl: f64, ci95: [f64; 2]| {
@@ -711,15 +711,15 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
         if let Some(twin) = twin.or(pruned_twin) {
             last.cl.ci95 = twin.spanned(last.cl.ci95);
-            last.cl.twin = Some(twin);
+            last.cl.twins.push(twin);
         }
         // The joint model from the nominal values, as good as the path, then the other end of
         // the C–Cl ridge, each where it puts Cl outside the interval even so (spanned after any
-        // other twin, and said in its place).
+        // other twin, and said beside it).
         for twin in [nominal_twin, ridge_twin].into_iter().flatten() {
             if !(last.cl.ci95[0]..=last.cl.ci95[1]).contains(&twin.cl) {
                 last.cl.ci95 = twin.spanned(last.cl.ci95);
-                last.cl.twin = Some(twin);
+                last.cl.twins.push(twin);
             }
         }
         let [lo, hi] = last.cl.ci95;
