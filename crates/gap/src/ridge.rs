@@ -6,9 +6,15 @@
 //! above its nominal, ended on a load ESR and the switches with Cl 37.8 µF, C's drift taken up
 //! by Cl; with C +11.0 % and Cl 1.27 µF it fits as well (3.880 mV held out against 3.933).
 //!
-//! The probe refits the final model with C free, started from Cl's capacitance moved into C.
-//! Where it lands as good held out, with C moved beyond the tolerance and Cl elsewhere, it is the
-//! final model's twin: Cl's interval spans both.
+//! The ridge has two ends: a fit may also put the load's capacitance into C's drift. A diode
+//! buck from the third generator with 2.77 µF of load beside 88 µF (and a 118 µF bulk) ended on
+//! eight effects with C +2.25 % and Cl 0.020 [0.010, 0.089] µF; with that drift moved into Cl,
+//! C at its nominal and Cl 2.31 µF, it fits as well (1.667 mV held out against 1.81).
+//!
+//! The probe refits the final model with C free, started from Cl's capacitance moved into C,
+//! and, where the final model has C drifted up beyond the tolerance, from that drift moved into
+//! Cl. Where it lands as good held out, with C moved beyond the tolerance and Cl elsewhere, it is
+//! the final model's twin: Cl's interval spans both.
 use buck_model::Params;
 use estimator::model::Free;
 use estimator::validate::chi2_99;
@@ -18,10 +24,10 @@ use crate::effect::{EffectFit, MAX_DRIFT, Twin, gross_miss, held_out_likelihood_
 use crate::problem::Problem;
 use crate::select::Stack;
 
-/// Shares of Cl's capacitance the probes start C with (the rest stays Cl's), one probe each: a
-/// valley along the ridge may lie short of its far end. Our plant with 20 µF beside C 11 % high,
-/// fitted at Cl 56 µF, stopped at C +13 % from 95 % (4.17 mV held out against 3.88), and was as
-/// good at C +7.8 % from half.
+/// Shares of Cl's capacitance the probes start C with (the rest stays Cl's), and of C's drift up
+/// the probes from the other end start Cl with, one probe each: a valley along the ridge may lie
+/// short of its far end. Our plant with 20 µF beside C 11 % high, fitted at Cl 56 µF, stopped at
+/// C +13 % from 95 % (4.17 mV held out against 3.88), and was as good at C +7.8 % from half.
 const MOVED_INTO_C: [f64; 2] = [0.5, 0.95];
 
 /// Whether a model leaving `rms` held out (over `n` samples) is as good as one leaving `against`:
@@ -33,10 +39,11 @@ fn as_good(rms: f64, against: f64, n: usize) -> bool {
     held_out_likelihood_ratio(rms, against, n) <= chi2_99(1)
 }
 
-/// The final model `selected` refitted with C free from Cl's capacitance moved into C (from each
-/// of [`MOVED_INTO_C`]), where C moved beyond the tolerance (within [`MAX_DRIFT`] of its
-/// nominal), Cl lies outside the final interval `ci95` and the fit is as good ([`as_good`]): a
-/// twin of the final model (of two, the one that leaves less). Switched data and model only.
+/// The final model `selected` refitted with C free from Cl's capacitance moved into C, and from
+/// C's drift up moved into Cl (from each of [`MOVED_INTO_C`]), where C moved beyond the
+/// tolerance (within [`MAX_DRIFT`] of its nominal), Cl lies outside the final interval `ci95`
+/// and the fit is as good ([`as_good`]): a twin of the final model (of several, the one that
+/// leaves least). Switched data and model only.
 pub(crate) fn twin(p: &Problem, selected: &[EffectFit], ci95: [f64; 2]) -> Option<Twin> {
     let Problem { data, nominal, switched_nominal, switched_data, n_est, holdout, baseline } = *p;
     let last = selected.last()?;
@@ -54,9 +61,17 @@ pub(crate) fn twin(p: &Problem, selected: &[EffectFit], ci95: [f64; 2]) -> Optio
     }
     // The final model's effects, C's drift (where it has one) left to be named with its new value.
     let kept: Vec<String> = selected.iter().map(EffectFit::label).filter(|l| l != "param_drift (C)").collect();
-    let probe = |share: &f64| {
-        let start = Params { c: stack.params.c + share * last.cl.estimate, cl: (1.0 - share) * last.cl.estimate, ..stack.params };
-        let probe = stack.fit(data, &[start], n_est, holdout).ok()?;
+    // Cl's capacitance moved into C; and where the final model has C drifted up beyond the
+    // tolerance, that drift moved into Cl (a load small beside C, its capacitance taken up by C's
+    // drift, sits at the ridge's other end).
+    let excess = stack.params.c - nominal.c;
+    let moved = |share: f64, amount: f64| Params { c: stack.params.c + share * amount, cl: last.cl.estimate - share * amount, ..stack.params };
+    let mut starts: Vec<Params> = MOVED_INTO_C.iter().map(|&share| moved(share, last.cl.estimate)).collect();
+    if excess > baseline.tolerance * nominal.c {
+        starts.extend(MOVED_INTO_C.iter().map(|&share| moved(share, -excess)));
+    }
+    let probe = |start: &Params| {
+        let probe = stack.fit(data, std::slice::from_ref(start), n_est, holdout).ok()?;
         let rms_after = rms(&residual(&probe));
         let c = probe.fit.params.c;
         let c_moved = (c / stack.params.c - 1.0).abs() > baseline.tolerance && (c / nominal.c - 1.0).abs() <= MAX_DRIFT;
@@ -67,5 +82,5 @@ pub(crate) fn twin(p: &Problem, selected: &[EffectFit], ci95: [f64; 2]) -> Optio
             Twin { selected: kept.iter().cloned().chain([drift]).collect(), rms_after, cl, ci95: ci95_probe }
         })
     };
-    MOVED_INTO_C.par_iter().filter_map(probe).collect::<Vec<_>>().into_iter().min_by(|a, b| a.rms_after.total_cmp(&b.rms_after))
+    starts.par_iter().filter_map(probe).collect::<Vec<_>>().into_iter().min_by(|a, b| a.rms_after.total_cmp(&b.rms_after))
 }
