@@ -138,9 +138,9 @@ pub struct ClMove {
     /// For a final model at the floor: an equally good model from another first step
     /// ([`crate::select::twin`]) whose Cl lies outside its interval; else the model the joint
     /// refit pruned to the final one, where the effect pruned was physical and Cl lies outside
-    /// (a drift of C that Cl took up); or the final model with Cl's capacitance moved into C,
-    /// as good held out, where Cl lies outside ([`crate::ridge`]). The interval spans each, and
-    /// each is named, in the order it widened the interval.
+    /// (a drift of C that Cl took up); or the final model with Cl's capacitance moved into C, or
+    /// C's drift moved into Cl, as good held out, where Cl lies outside ([`crate::ridge`]).
+    /// The interval spans each, and each is named, in the order it widened the interval.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub twins: Vec<Twin>,
     /// For a final model read at the period start: the same model with the reading's instant
