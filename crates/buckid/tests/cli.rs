@@ -103,6 +103,11 @@ fn assert_final_cl_holds_truth(dx: &serde_json::Value, truth: &serde_json::Value
     [lo, hi]
 }
 
+/// The labels of the effects of a twin model in a diagnosis's JSON (`cl.twins[i]`), in order.
+fn twin_labels(twin: &serde_json::Value) -> Vec<&str> {
+    twin["selected"].as_array().map(|s| s.iter().filter_map(serde_json::Value::as_str).collect()).unwrap_or_default()
+}
+
 /// Asserts that the final model of the diagnosis `dx` leaves less than `floors` noise floors
 /// held out.
 fn assert_final_within_floors(dx: &serde_json::Value, floors: f64) {
@@ -1080,10 +1085,9 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
 fn a_joint_model_from_the_nominal_values_as_good_as_the_path_spans_cl() {
     let (dx, truth) = diagnose_third("pol-several-10102");
     let last = dx["selected"].as_array().unwrap().last().unwrap();
-    let names = |twin: &serde_json::Value| -> Vec<String> { twin["selected"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string()).collect() };
     let twins = last["cl"]["twins"].as_array().expect("Cl's twins");
-    let twin = twins.iter().find(|t| names(t).contains(&"param_drift (C)".to_string())).expect("a twin with C's drift");
-    assert!(!names(twin).contains(&"sensor_gain".to_string()), "{twin}");
+    let twin = twins.iter().find(|t| twin_labels(t).contains(&"param_drift (C)")).expect("a twin with C's drift");
+    assert!(!twin_labels(twin).contains(&"sensor_gain"), "{twin}");
     assert!(twin["rms_after"].as_f64().unwrap() <= last["rms_after"].as_f64().unwrap(), "{twin}");
     let [lo, hi] = assert_final_cl_holds_truth(&dx, &truth, 10.0);
     assert_eq!(twins.len(), 2, "the pruning's twin and the nominal values' both named: {twins:?}");
@@ -1572,7 +1576,7 @@ fn a_drift_pruned_into_cl_leaves_cl_not_identified() {
     let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
     let cl = &last["cl"];
     let twins = cl["twins"].as_array().expect("Cl's twins");
-    assert!(twins.iter().any(|t| t["selected"].as_array().is_some_and(|s| s.iter().any(|e| e == "param_drift (C)"))), "{cl}");
+    assert!(twins.iter().any(|t| twin_labels(t).contains(&"param_drift (C)")), "{cl}");
     assert_cl_holds_truth(cl, &truth);
 }
 
@@ -1593,7 +1597,7 @@ fn a_load_taken_up_by_cs_drift_is_found_at_the_ridges_other_end() {
     let cl_true = truth["cl_true"].as_f64().unwrap();
     let twins = cl["twins"].as_array().expect("Cl's twins");
     let at_nominal_c = twins.iter().find(|t| {
-        let drift = t["selected"].as_array().unwrap().iter().find_map(|l| l.as_str()?.strip_prefix("param_drift (C) "));
+        let drift = twin_labels(t).into_iter().find_map(|l| l.strip_prefix("param_drift (C) "));
         drift.and_then(|d| d.trim_end_matches(" %").parse::<f64>().ok()).is_some_and(|d| d.abs() < 1.0)
     });
     let twin = at_nominal_c.expect("a twin with C at its nominal");

@@ -32,9 +32,10 @@ const MOVED_INTO_C: [f64; 2] = [0.5, 0.95];
 
 /// Whether a model leaving `rms` held out (over `n` samples) is as good as one leaving `against`:
 /// the likelihood ratio of the other on the held-out data ([`held_out_likelihood_ratio`]) within
-/// its 99 % point for one parameter. Its held-out residual a hair above the final model's, a probe is as
-/// good (our plant's 20 µF beside C 11 % high: 3.8792 mV against 3.8790); 3 % more power over
-/// 900 samples (a point-of-load buck's probe, C +14.6 % where C is at its nominal) is not.
+/// its 99 % point for one parameter. Its held-out residual a hair above the final model's, a
+/// probe is as good (our plant's 20 µF beside C 11 % high: 3.8792 mV against 3.8790); 3 % more
+/// power over 900 samples (a point-of-load buck's probe, C +14.6 % where C is at its nominal) is
+/// not.
 fn as_good(rms: f64, against: f64, n: usize) -> bool {
     held_out_likelihood_ratio(rms, against, n) <= chi2_99(1)
 }
