@@ -417,8 +417,8 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         }
     };
     // The other topology, where the path from the first step still misses materially and the
-    // other topology's best first step came close, or the instant within the period where the
-    // first step read a row late (see `select::rival`).
+    // other topology's best first step came close (on vout alone: is a finding), or the instant
+    // within the period where the first step read a row late (see `select::rival`).
     let rms_left = selected.last().map(|e| e.rms_after);
     // The material share of the gap a path left (`left`, held-out RMS) that another path closes.
     let closes_of_left = |other: &[EffectFit], left: f64| other.last().and_then(|e| baseline.closed_of_material_gap(left, e.rms_after)).filter(|c| *c >= effect::MATERIAL_SHARE);
@@ -435,7 +435,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let mut from = first_step.map_or("", |f| f.name);
     if let (Some(first), Some(rms_left)) = (first, rms_left)
         && baseline.misses_materially(rms_left) == Some(true)
-        && let Some((rival, kind)) = select::rival(&effects, first)
+        && let Some((rival, kind)) = select::rival(&effects, first, data.il.is_some())
     {
         tried.push(rival.name);
         let (other, other_ended) = path(std::slice::from_ref(rival));
