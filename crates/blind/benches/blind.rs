@@ -66,7 +66,7 @@ fn floor_error_percent(o: &Outcome) -> Option<f64> {
     o.noise_floor.map(|f| 100.0 * (f / o.truth.measurement_noise() - 1.0))
 }
 
-/// A Cl interval [F] in µF to `digits` decimals, or "(not identified)" where it pins nothing
+/// A Cl interval \[F\] in µF to `digits` decimals, or "(not identified)" where it pins nothing
 /// down (no bound of 10¹⁵¹ µF printed as a figure).
 fn interval_uf([lo, hi]: [f64; 2], digits: usize) -> String {
     if estimator::validate::identified([lo, hi]) { format!("[{:.digits$}, {:.digits$}]", lo * 1e6, hi * 1e6) } else { "(not identified)".to_string() }

@@ -27,7 +27,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-/// Sensor noise on `vout` [V] of every dataset (at the ADC input for `adc_quantization`): the
+/// Sensor noise on `vout` \[V\] of every dataset (at the ADC input for `adc_quantization`): the
 /// floor under the gap, known to the scorer (the diagnosis estimates it from the data).
 pub const NOISE_VOUT: f64 = 2e-3;
 
@@ -41,11 +41,11 @@ pub struct Truth {
     pub effect: &'static str,
     /// Further withheld effects (the independent harness's datasets with two or more).
     pub also: Vec<&'static str>,
-    /// Standard deviation of the sensor noise on `vout` [V].
+    /// Standard deviation of the sensor noise on `vout` \[V\].
     pub noise: f64,
-    /// The load capacitance [F].
+    /// The load capacitance \[F\].
     pub cl: f64,
-    /// The load current [A].
+    /// The load current \[A\].
     pub io: f64,
     /// Plant settings by FMU variable name (the effect's parameters).
     pub settings: Vec<(&'static str, f64)>,
@@ -82,7 +82,7 @@ impl Truth {
         if effects.is_empty() { "none".to_string() } else { effects.join("+") }
     }
 
-    /// RMS of the measurement noise on the readings [V]: the sensor noise, plus the
+    /// RMS of the measurement noise on the readings \[V\]: the sensor noise, plus the
     /// quantization's `lsb²/12` (Sheppard) for `adc_quantization` at the plant's default full
     /// scale (the generator leaves `adc_vfs` alone).
     pub fn measurement_noise(&self) -> f64 {
@@ -106,7 +106,7 @@ pub struct Case {
     pub truth: Truth,
     /// Where the data came from.
     pub source: &'static str,
-    /// RMS of what the withheld effects alone add to `vout` over the held-out third [V], where
+    /// RMS of what the withheld effects alone add to `vout` over the held-out third \[V\], where
     /// a twin without them was run (the harness: its late ADC leaves a gap of its own); else
     /// the gap the nominal model leaves decides detectability.
     pub effect_rms: Option<f64>,
@@ -114,9 +114,9 @@ pub struct Case {
     /// itself (a twin run without it alone), in the order of [`Truth::effects`]; `None` for
     /// one without a twin (a diode or a dead time: the topology itself). Empty elsewhere.
     pub effect_rms_each: Vec<Option<f64>>,
-    /// The load capacitance the data shows, which the scores compare against [F]: `truth.cl`,
+    /// The load capacitance the data shows, which the scores compare against \[F\]: `truth.cl`,
     /// except for a DC-biased ceramic, whose small-signal capacitance at its operating point it
-    /// is, the output voltage averaged in time ([`operating_point`]; the value at 0 V is an
+    /// is, the output voltage averaged in time (`operating_point`; the value at 0 V is an
     /// extrapolation by a bias law, which data that never leaves the operating point cannot
     /// tell; the diagnosis reports Cl there too).
     pub true_cl: f64,
@@ -409,7 +409,7 @@ fn harness_effect(effect: &'static str, io: f64, rng: &mut ChaCha8Rng) -> Vec<(&
 /// Ranges of the harness's draws that a run may change.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HarnessRanges {
-    /// Delay of the ADC's sample after the period start, drawn uniformly in [lo, hi] [s].
+    /// Delay of the ADC's sample after the period start, drawn uniformly in [lo, hi] \[s\].
     pub adc_delay: [f64; 2],
 }
 
@@ -491,7 +491,7 @@ fn harness_effect_keys(effect: &str) -> Option<&'static [&'static str]> {
 /// A dataset of `periods` periods from the independent harness (its own noise, seeded by
 /// `seed`), to be diagnosed against the design's nominal values and the switched model.
 ///
-/// Where the withheld effects have a twin ([`harness_effect_keys`]), the harness runs again
+/// Where the withheld effects have a twin (`harness_effect_keys`), the harness runs again
 /// without them, same seed (same PRBS, same noise, same late ADC): the RMS of the difference in
 /// `vout` over the held-out third is what the effects themselves leave ([`Case::effect_rms`]),
 /// which the ADC's own gap would otherwise hide from the detection limit.
@@ -561,7 +561,7 @@ fn mean(x: &[f64]) -> f64 {
 
 /// The operating point of a generator's record: its output voltage averaged in time, from the
 /// plant's own period averages (`vout_avg`: the FMU, the own netlists) or the harness's
-/// `vout_time_mean` [V]. Not the samples' mean: they are all taken at one phase of the ripple.
+/// `vout_time_mean` \[V\]. Not the samples' mean: they are all taken at one phase of the ripple.
 fn operating_point(data: &DataSet) -> Result<f64, EstimatorError> {
     if let Some(averages) = data.vout_avg.as_deref() {
         return Ok(mean(averages));
@@ -576,7 +576,7 @@ fn operating_point(data: &DataSet) -> Result<f64, EstimatorError> {
 const HARNESS_TIME_MEAN: &str = "vout_time_mean";
 
 /// The load capacitance at the voltage `v` under the model's DC-bias law (the FMU's and the
-/// own netlists', `cap_rated_voltage` 16 V unless set) [F]; `truth.cl` without a bias.
+/// own netlists', `cap_rated_voltage` 16 V unless set) \[F\]; `truth.cl` without a bias.
 fn model_biased_cl(truth: &Truth, v: f64) -> f64 {
     let mut p = Params { cl: truth.cl, ..Params::default() };
     for (key, value) in &truth.settings {
@@ -591,7 +591,7 @@ fn model_biased_cl(truth: &Truth, v: f64) -> f64 {
 
 /// The small-signal load capacitance at the voltage `v` under the harness's DC-bias law
 /// (`scripts/spice/harness/harness.py`: `Cl(v) = Cl/(1 + c·v/Vr)²`, `c = 1/√(1 − dcbias) − 1`)
-/// [F]; `truth.cl` without a bias.
+/// \[F\]; `truth.cl` without a bias.
 pub fn harness_biased_cl(truth: &Truth, v: f64) -> f64 {
     let setting = |key: &str| truth.settings.iter().find(|(k, _)| *k == key).map(|(_, x)| *x);
     match (setting("dcbias"), setting("vrated")) {
@@ -642,17 +642,17 @@ pub struct Outcome {
     /// ([`Case::effect_rms_each`]) is not above the true measurement noise: no diagnosis can
     /// name them from this data.
     pub below_detection: Vec<&'static str>,
-    /// The diagnosis's own, model-free estimate of the sensor noise [V].
+    /// The diagnosis's own, model-free estimate of the sensor noise \[V\].
     pub noise_floor: Option<f64>,
-    /// The verdict's Cl estimate and its CI95 [F].
+    /// The verdict's Cl estimate and its CI95 \[F\].
     pub cl: Option<(f64, [f64; 2])>,
     /// The test of the verdict's Cl interval (see [`gap::ClCheck`]).
     pub cl_check: Option<gap::ClCheck>,
-    /// The Cl estimate and CI95 the diagnosis ends with (the nominal's for `none`) [F].
+    /// The Cl estimate and CI95 the diagnosis ends with (the nominal's for `none`) \[F\].
     pub final_cl: Option<(f64, [f64; 2])>,
-    /// Wall time of the diagnosis [s].
+    /// Wall time of the diagnosis \[s\].
     pub seconds: f64,
-    /// The load capacitance the data shows ([`Case::true_cl`]) [F].
+    /// The load capacitance the data shows ([`Case::true_cl`]) \[F\].
     pub true_cl: f64,
 }
 

@@ -13,11 +13,11 @@ use crate::{Mode, ModelError, Params};
 pub struct Inputs {
     /// Duty cycle command, 0..1.
     pub duty: f64,
-    /// Load current [A].
+    /// Load current \[A\].
     pub io: f64,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: f64,
-    /// Output voltage reference of the controller [V] (closed loop).
+    /// Output voltage reference of the controller \[V\] (closed loop).
     pub vref: f64,
     /// Added to the controller's duty (closed loop).
     pub dither: f64,
@@ -32,35 +32,35 @@ impl Default for Inputs {
 /// Circuit state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct State {
-    /// Inductor current [A].
+    /// Inductor current \[A\].
     pub il: f64,
-    /// Voltage of C behind its ESR [V].
+    /// Voltage of C behind its ESR \[V\].
     pub vc: f64,
-    /// Voltage across Cl [V] (the output voltage unless `load_esr > 0`).
+    /// Voltage across Cl \[V\] (the output voltage unless `load_esr > 0`).
     pub vo: f64,
-    /// Current into the C branch [A]; a state only when `esl > 0`, else ignored.
+    /// Current into the C branch \[A\]; a state only when `esl > 0`, else ignored.
     pub ic: f64,
 }
 
 /// Everything the converter reports.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outputs {
-    /// Instantaneous output (node) voltage [V].
+    /// Instantaneous output (node) voltage \[V\].
     pub vout: f64,
-    /// Instantaneous inductor current [A].
+    /// Instantaneous inductor current \[A\].
     pub il: f64,
-    /// Instantaneous voltage of C behind its ESR [V].
+    /// Instantaneous voltage of C behind its ESR \[V\].
     pub vc: f64,
-    /// Exact average of `vout` over the last completed switching period [V].
+    /// Exact average of `vout` over the last completed switching period \[V\].
     pub vout_avg: f64,
-    /// Exact average of `il` over the last completed switching period [A].
+    /// Exact average of `il` over the last completed switching period \[A\].
     pub il_avg: f64,
     /// Duty that drove the switch in the last latched period.
     pub duty_applied: f64,
     /// The ADC's latest reading of `vout` (at the period start, or `adc_delay + adc_vout_skew`
-    /// into the period) [V].
+    /// into the period) \[V\].
     pub vout_adc: f64,
-    /// The ADC's latest reading of `il` (at the period start, or `adc_delay` into the period) [A].
+    /// The ADC's latest reading of `il` (at the period start, or `adc_delay` into the period) \[A\].
     pub il_adc: f64,
 }
 
@@ -155,12 +155,12 @@ struct Piece {
 
 /// A buck converter that advances exactly over steps of any length.
 ///
-/// The engine is piecewise linear: between events the circuit is one [`Topology`] (what
+/// The engine is piecewise linear: between events the circuit is one `Topology` (what
 /// conducts) with its `A`, `B` from [`Params::piece_lti`], held inputs `[u_sw, io]`, and an
 /// exact transition of the state and its integral, cached per (circuit, piece length). Fixed-time
 /// events come from the PWM timing (high-side turn-off at `d·T`, the dead-time edges, the period
 /// end); state events (`il = 0` of a conducting diode, `|il| = isat`) are located inside a piece
-/// on the exact solution to `1e-15·T` (bisection over the circuit's [`Ladder`] of exact
+/// on the exact solution to `1e-15·T` (bisection over the circuit's `Ladder` of exact
 /// transitions, then safeguarded Newton iteration on its local Taylor polynomial), the piece is
 /// split there and the topology re-chosen. One loop handles both, for any communication step.
 ///
@@ -188,17 +188,17 @@ pub struct Converter {
     z: Vector4<f64>,
     /// Integral of the load current since the start of the current period [A·s].
     io_integral: f64,
-    /// Load current held over the latest piece [A]: `vout` depends on it through `load_esr`,
+    /// Load current held over the latest piece \[A\]: `vout` depends on it through `load_esr`,
     /// and an input set after a step must not change the outputs of that step.
     io_held: f64,
-    /// Time since the start of the current period [s].
+    /// Time since the start of the current period \[s\].
     phase: f64,
     /// Duty in force during the current period (latched at its start).
     latched_duty: f64,
     /// The PWM signal was high at the end of the previous period (duty 1): no rising edge, so
     /// no dead time, at this period's start; a duty-0 period then starts with a falling edge.
     pwm_high_before: bool,
-    /// Load capacitance in force during the current period (`cap_dc_bias`) [F].
+    /// Load capacitance in force during the current period (`cap_dc_bias`) \[F\].
     cl_now: f64,
     /// Voltage across Cl at the previous period start, for the mid-period extrapolation of
     /// `cl_now` (`None` right after a state was set).
@@ -227,7 +227,7 @@ pub struct Converter {
     adc_pending: [bool; 2],
     /// Averages `[il, vc, vcl, ic]` over the last completed period.
     last_average: Vector4<f64>,
-    /// Average load current over the last completed period [A].
+    /// Average load current over the last completed period \[A\].
     last_io_average: f64,
     /// ADC, controller, delay line, DPWM.
     digital: Digital,
@@ -314,7 +314,7 @@ impl Converter {
         &self.inputs
     }
 
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub fn time(&self) -> f64 {
         self.time
     }

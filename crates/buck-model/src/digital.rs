@@ -39,28 +39,28 @@ pub struct Digital {
     pub delay: u32,
     /// ADC resolution in bits (0: ideal, no quantization).
     pub adc_bits: u32,
-    /// ADC full scale of `vout`, unipolar `[0, vfs]` [V].
+    /// ADC full scale of `vout`, unipolar `[0, vfs]` \[V\].
     pub adc_vfs: f64,
-    /// ADC full scale of `il`, bipolar `[−ifs, ifs]` [A].
+    /// ADC full scale of `il`, bipolar `[−ifs, ifs]` \[A\].
     pub adc_ifs: f64,
-    /// Standard deviation of white sensor noise on `vout` at the ADC input [V].
+    /// Standard deviation of white sensor noise on `vout` at the ADC input \[V\].
     pub adc_noise: f64,
-    /// Standard deviation of white sensor noise on `il` at the ADC input [A], independent of
+    /// Standard deviation of white sensor noise on `il` at the ADC input \[A\], independent of
     /// the noise on `vout`.
     pub adc_il_noise: f64,
     /// Seed of the noise on both channels (each sequence a pure function of seed and period
     /// index).
     pub noise_seed: u64,
-    /// Instant of the reading after each period start [s] (0: at the period start, the
+    /// Instant of the reading after each period start \[s\] (0: at the period start, the
     /// previous period's end).
     pub adc_delay: f64,
-    /// How long after `il` the ADC converts `vout` [s], signed (a multiplexed ADC converts its
+    /// How long after `il` the ADC converts `vout` \[s\], signed (a multiplexed ADC converts its
     /// channels one after the other): `il` is read at `adc_delay`, `vout` at
     /// `adc_delay + adc_vout_skew`, both within the period (0: one instant).
     pub adc_vout_skew: f64,
-    /// Time constant of the RC anti-alias filter in front of the `vout` channel [s] (0: none).
+    /// Time constant of the RC anti-alias filter in front of the `vout` channel \[s\] (0: none).
     pub adc_filter: f64,
-    /// Time constant of the first-order low-pass in front of the `il` channel [s] (0: none): a
+    /// Time constant of the first-order low-pass in front of the `il` channel \[s\] (0: none): a
     /// current-sense amplifier's bandwidth or the channel's own anti-alias filter.
     pub adc_il_filter: f64,
     /// DPWM resolution in bits (0: ideal).

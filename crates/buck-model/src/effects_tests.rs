@@ -888,7 +888,7 @@ impl RingLobe {
         Self::damped(duty, io, 0.0)
     }
 
-    /// [`RingLobe::new`] with the node's capacitance behind `damping` [Ω].
+    /// [`RingLobe::new`] with the node's capacitance behind `damping` \[Ω\].
     fn damped(duty: f64, io: f64, damping: f64) -> Self {
         let p = Params { diode_drop: Self::VF, switch_node_capacitance: Self::CSW, switch_node_ring: true, switch_node_damping: damping, ..Params::default() };
         let mut conv = converter(p, Mode::Switched, duty, io);
@@ -901,7 +901,7 @@ impl RingLobe {
         Self { p, vout, il, block, end }
     }
 
-    /// The lobe's length [s].
+    /// The lobe's length \[s\].
     fn length(&self) -> f64 {
         (self.end - self.block) as f64 * Self::H
     }

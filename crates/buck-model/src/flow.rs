@@ -36,7 +36,7 @@ const TERMS: usize = 10;
 /// Transition over one held-input piece: `x(h) = ad·x + bd·u`, `∫₀ʰ x = ia·x + ib·u`.
 #[derive(Debug, Clone)]
 pub(crate) struct Transition {
-    /// Length of the piece [s].
+    /// Length of the piece \[s\].
     pub h: f64,
     /// See the type.
     pub ad: Mat,
@@ -141,7 +141,7 @@ fn halvings(a: &Mat, tau: f64, theta: f64) -> i32 {
     (norm1(a) * tau.abs() / theta).log2().ceil().max(0.0) as i32
 }
 
-/// Where a piece has got to: time since its start [s], state, state integral.
+/// Where a piece has got to: time since its start \[s\], state, state integral.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Point {
     pub t: f64,

@@ -15,19 +15,19 @@ use nalgebra::DMatrix;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Params {
-    /// Inductance `L` [H].
+    /// Inductance `L` \[H\].
     pub l: f64,
-    /// Inductor series resistance `RL` [Ω].
+    /// Inductor series resistance `RL` \[Ω\].
     pub rl: f64,
-    /// Main output capacitance `C` [F].
+    /// Main output capacitance `C` \[F\].
     pub c: f64,
-    /// Equivalent series resistance of `C`, `Rc` [Ω].
+    /// Equivalent series resistance of `C`, `Rc` \[Ω\].
     pub rc: f64,
-    /// Load capacitance `Cl` [F].
+    /// Load capacitance `Cl` \[F\].
     pub cl: f64,
-    /// Switching frequency `fs` [Hz].
+    /// Switching frequency `fs` \[Hz\].
     pub fs: f64,
-    /// `switch_resistance`: on-resistance of each switch of the synchronous half bridge [Ω],
+    /// `switch_resistance`: on-resistance of each switch of the synchronous half bridge \[Ω\],
     /// in series with `RL` while a switch (not a diode) conducts.
     pub switch_resistance: f64,
     /// On-resistance of the low-side switch over the high side's (`switch_resistance`): 1 (the
@@ -35,14 +35,14 @@ pub struct Params {
     /// lower-resistance low side, so the series resistance depends on the duty:
     /// `d·Rhs + (1 − d)·Rls` on average. Synchronous buck, both modes.
     pub low_side_ratio: f64,
-    /// `diode_drop`: forward drop of the freewheeling diode [V]. Positive makes the buck
+    /// `diode_drop`: forward drop of the freewheeling diode \[V\]. Positive makes the buck
     /// asynchronous (the low side is a diode); also the body-diode drop during dead time.
     pub diode_drop: f64,
-    /// Slope resistance of the diodes [Ω]: a conducting diode (the freewheeling diode, a body
+    /// Slope resistance of the diodes \[Ω\]: a conducting diode (the freewheeling diode, a body
     /// diode during dead time) drops `Vf + diode_resistance·|il|`, the threshold-voltage and
     /// slope-resistance model of a diode datasheet (a real diode's `n·Vt/I` plus its `Rs`).
     pub diode_resistance: f64,
-    /// Emission voltage `n·Vt` of the diodes' exponential law [V] (about 26 mV times the
+    /// Emission voltage `n·Vt` of the diodes' exponential law \[V\] (about 26 mV times the
     /// ideality `n`): a real diode's drop grows with the logarithm of its current, steepest at
     /// light load. Positive, a conducting diode drops `n·Vt·ln(1 + |il|/Is) + diode_resistance·|il|`
     /// (Shockley's law with its series resistance), `Is` set so that the drop at 1 A is still
@@ -53,16 +53,16 @@ pub struct Params {
     /// `dcm`: asynchronous buck with an ideal or `diode_drop` diode as the low side, so that the
     /// inductor current stops at zero (discontinuous conduction) instead of reversing.
     pub dcm: bool,
-    /// `dead_time`: both switches off after the high-side turn-off and before its turn-on [s].
+    /// `dead_time`: both switches off after the high-side turn-off and before its turn-on \[s\].
     pub dead_time: f64,
-    /// The high side's on-time beyond the PWM's `d·T` [s], signed: a gate drive's turn-off
+    /// The high side's on-time beyond the PWM's `d·T` \[s\], signed: a gate drive's turn-off
     /// delay minus its turn-on delay (pulse-width distortion; a MOSFET's turn-off delay is the
     /// longer, its gate discharging from the plateau). In CCM it moves `vout` by
     /// `vin·pulse_width_distortion/T`. A pulse the PWM gives is stretched or shortened, the
     /// on-time held within `[0, T]`; none is made where it gives none (duty 0), and a duty of 1
     /// stays on. 0 (the default): the switch follows the PWM. Both modes.
     pub pulse_width_distortion: f64,
-    /// Capacitance of the switch node to ground [F] (the switches' output capacitances, the
+    /// Capacitance of the switch node to ground \[F\] (the switches' output capacitances, the
     /// diode's junction, the layout). While both switches are off the inductor current
     /// charges it: the node slews from the rail a switch held it at toward the diode clamp the
     /// current pushes it to, in `Csw·ΔV/|il|` (soft switching where il drives it to the other
@@ -76,7 +76,7 @@ pub struct Params {
     /// starts from the current the ring has then (in deep DCM that sets each period's charge).
     /// Off (the default), as the estimator's fits assume: a blocked inductor holds `il = 0`.
     pub switch_node_ring: bool,
-    /// Resistance in series with the switch node's capacitance [Ω]: an RC snubber across the
+    /// Resistance in series with the switch node's capacitance \[Ω\]: an RC snubber across the
     /// diode is a capacitance behind a resistor, and a diode buck's snubber is often the
     /// node's largest capacitance. The ring (`switch_node_ring`) is then damped, the node at
     /// `vcap − Rd·il`; at an edge the node jumps by `Rd·|il|` toward its clamp and slews the
@@ -84,14 +84,14 @@ pub struct Params {
     /// the diode's loop, not through L). A ring's clamp is taken where the capacitance's voltage
     /// reaches it. 0 (the default): the capacitance sits on the node.
     pub switch_node_damping: f64,
-    /// `load_esr`: series resistance of `Cl` [Ω]; `vout` is then the node voltage.
+    /// `load_esr`: series resistance of `Cl` \[Ω\]; `vout` is then the node voltage.
     pub load_esr: f64,
-    /// `esl`: series inductance of the main capacitor branch `C`, `Rc` [H].
+    /// `esl`: series inductance of the main capacitor branch `C`, `Rc` \[H\].
     pub esl: f64,
     /// `inductor_saturation`: fraction of `L` lost above `isat` (incremental inductance
     /// `L·(1 − inductor_saturation)` for `|il| > isat`).
     pub inductor_saturation: f64,
-    /// Saturation current of the inductor [A].
+    /// Saturation current of the inductor \[A\].
     pub isat: f64,
     /// `cap_dc_bias`: fraction of `Cl` lost at `cap_rated_voltage`:
     /// `Cl(v) = Cl·(1 − cap_dc_bias·(v/V_rated)²)` (the [`BiasLaw`] in force), held at its
@@ -100,18 +100,18 @@ pub struct Params {
     /// The shape of the `cap_dc_bias` law. Not an FMU parameter (the FMU's is quadratic): a
     /// fit tries the other shape too, since data at a few voltages cannot tell them apart.
     pub cap_bias_law: BiasLaw,
-    /// Rated voltage of `Cl` for `cap_dc_bias` [V].
+    /// Rated voltage of `Cl` for `cap_dc_bias` \[V\].
     pub cap_rated_voltage: f64,
-    /// Voltage at which `cl` is the load capacitance under `cap_dc_bias` [V]: 0 (the default)
+    /// Voltage at which `cl` is the load capacitance under `cap_dc_bias` \[V\]: 0 (the default)
     /// makes `cl` the zero-bias value. Not an FMU parameter: a fit sets it to the data's mean
     /// output so that the fitted `cl` is the capacitance the data shows, not an extrapolation
     /// to 0 V that depends on the bias law.
     pub cl_reference_voltage: f64,
-    /// Load resistance from the output node `vout` to ground [Ω], drawing `vout/rload` beside
+    /// Load resistance from the output node `vout` to ground \[Ω\], drawing `vout/rload` beside
     /// the load current `io`; 0 means no resistor (the ideal current-load circuit, bit for bit).
     /// With `load_esr` it sits at the node, across the series `Cl` + ESR branch. Both modes.
     pub rload: f64,
-    /// Instant after each period start at which the outputs are sampled [s] (a data
+    /// Instant after each period start at which the outputs are sampled \[s\] (a data
     /// acquisition or ADC that reads a little late). Not a circuit value: the estimator's plant
     /// simulator reads `vout` there (`sample_delay` effect). The FMU's own ADC reads at its
     /// `adc_delay` ([`crate::digital::Digital::adc_delay`]), which `vout_adc` and `il_adc` report.
@@ -123,7 +123,7 @@ pub struct Params {
     /// with 3T/4: the middle of the off-time (where controllers read the average inductor
     /// current clear of the edges). 0 (the default): a fixed instant. Not an FMU parameter.
     pub sample_duty_share: f64,
-    /// How long after the `il` reading's instant `vout` is read [s], signed: the two channels
+    /// How long after the `il` reading's instant `vout` is read \[s\], signed: the two channels
     /// read at different instants, as a multiplexed ADC converts them one after the other or a
     /// scope's current probe is not deskewed against its voltage probe. `il` is read at the
     /// sampling instant ([`Params::sample_instant`]), `vout` this much later (earlier where
@@ -132,19 +132,19 @@ pub struct Params {
     /// ([`crate::digital::Digital::adc_vout_skew`]).
     pub vout_skew: f64,
     /// Time constant of a first-order low-pass the `vout` reading passes through before it is
-    /// sampled [s]: the RC anti-alias filter in front of a controller's ADC, commonly with its
+    /// sampled \[s\]: the RC anti-alias filter in front of a controller's ADC, commonly with its
     /// corner near half the switching frequency (τ ≈ T/π). 0 (the default): read directly. Not
     /// a circuit value: the estimator's plant simulator reads `vout` through it (`sensor_filter`
     /// effect); the FMU's ADC reads through its `adc_filter`
     /// ([`crate::digital::Digital::adc_filter`]), the same filter.
     pub vout_filter: f64,
     /// Time constant of a first-order low-pass the `il` reading passes through before it is
-    /// sampled [s]: a current-sense amplifier's bandwidth, or an anti-alias filter in front of
+    /// sampled \[s\]: a current-sense amplifier's bandwidth, or an anti-alias filter in front of
     /// the ADC's `il` channel. 0 (the default): read directly. Not a circuit value: the
     /// estimator's plant simulator reads `il` through it; the FMU's ADC reads through its
     /// `adc_il_filter` ([`crate::digital::Digital::adc_il_filter`]), the same filter.
     pub il_filter: f64,
-    /// Offset of the `vout` reading [V]: a probe's or an ADC's zero error, added to what is read
+    /// Offset of the `vout` reading \[V\]: a probe's or an ADC's zero error, added to what is read
     /// (`sensor_offset` effect). Not a circuit value and not an FMU parameter, like
     /// `sample_delay`.
     pub vout_offset: f64,
@@ -152,7 +152,7 @@ pub struct Params {
     /// `(1 + vout_gain_error)·vout + vout_offset` (a divider's resistor tolerance, a probe's
     /// attenuation; `sensor_gain` effect). Not a circuit value and not an FMU parameter.
     pub vout_gain_error: f64,
-    /// Offset of the `il` reading [A]: a current probe's or a sense amplifier's zero error. The
+    /// Offset of the `il` reading \[A\]: a current probe's or a sense amplifier's zero error. The
     /// estimator fits it beside a late reading, which `il` pins (see
     /// `estimator::simulated`). Not a circuit value and not an FMU parameter.
     pub il_offset: f64,
@@ -201,7 +201,7 @@ impl BiasLaw {
     }
 }
 
-/// Body-diode drop used during dead time when `diode_drop` is 0 [V] (a silicon MOSFET body
+/// Body-diode drop used during dead time when `diode_drop` is 0 \[V\] (a silicon MOSFET body
 /// diode).
 pub const BODY_DIODE_DROP: f64 = 0.7;
 
@@ -298,18 +298,18 @@ impl Params {
         Ok(())
     }
 
-    /// Conductance of the load resistor `1/rload` [S], 0 without one (`rload = 0`).
+    /// Conductance of the load resistor `1/rload` \[S\], 0 without one (`rload = 0`).
     pub fn load_conductance(&self) -> f64 {
         if self.rload > 0.0 { 1.0 / self.rload } else { 0.0 }
     }
 
-    /// Switching period `T = 1/fs` [s].
+    /// Switching period `T = 1/fs` \[s\].
     pub fn period(&self) -> f64 {
         1.0 / self.fs
     }
 
     /// The instant after a period start of length `period` at which a period of duty `duty` is
-    /// read: `sample_delay + sample_duty_share·(duty − ½)·period` [s].
+    /// read: `sample_delay + sample_duty_share·(duty − ½)·period` \[s\].
     pub fn sample_instant(&self, duty: f64, period: f64) -> f64 {
         self.sample_delay + self.sample_duty_share * (duty - 0.5) * period
     }
@@ -328,13 +328,13 @@ impl Params {
         self.dcm || self.diode_drop > 0.0
     }
 
-    /// Drop of the body diodes that conduct during dead time [V]: `diode_drop` when positive,
-    /// else [`BODY_DIODE_DROP`].
+    /// Drop of the body diodes that conduct during dead time \[V\]: `diode_drop` when positive,
+    /// else `BODY_DIODE_DROP`.
     pub fn body_diode_drop(&self) -> f64 {
         if self.diode_drop > 0.0 { self.diode_drop } else { BODY_DIODE_DROP }
     }
 
-    /// Drop of the diode that carries a positive il with both switches off [V]: the freewheeling
+    /// Drop of the diode that carries a positive il with both switches off \[V\]: the freewheeling
     /// diode of the asynchronous buck, else the low-side switch's body diode.
     pub fn low_diode_drop(&self) -> f64 {
         if self.asynchronous() { self.diode_drop } else { self.body_diode_drop() }
@@ -342,7 +342,7 @@ impl Params {
 
     /// Mean drop of a diode whose forward drop at 1 A is `vf`, beyond its slope resistance
     /// (which sits in the circuit's series resistance), while its current runs linearly from
-    /// `i0` to `i1` (both ≥ 0) [V]: `vf` on the straight-line law, the mean of
+    /// `i0` to `i1` (both ≥ 0) \[V\]: `vf` on the straight-line law, the mean of
     /// `n·Vt·ln(1 + i/Is)` under `diode_emission` (see [`Params::diode_emission`]).
     pub fn diode_law_mean(&self, vf: f64, i0: f64, i1: f64) -> f64 {
         let nvt = self.diode_emission;
@@ -376,7 +376,7 @@ impl Params {
         nvt * (antiderivative(b) - antiderivative(a)) / (b - a)
     }
 
-    /// Load capacitance at the voltage `v` across it under `cap_dc_bias` [F].
+    /// Load capacitance at the voltage `v` across it under `cap_dc_bias` \[F\].
     pub fn cl_at(&self, v: f64) -> f64 {
         if self.cap_dc_bias == 0.0 {
             return self.cl;
@@ -385,7 +385,7 @@ impl Params {
         self.cl * kept(v) / kept(self.cl_reference_voltage)
     }
 
-    /// Load capacitance held over a period under `cap_dc_bias` [F]: its value for the
+    /// Load capacitance held over a period under `cap_dc_bias` \[F\]: its value for the
     /// mid-period voltage across Cl, extrapolated from this period start's `v` and the last
     /// one's `last` (the midpoint rule in v; `v` itself without a last start). Over the LC
     /// transients after a duty step, holding the start value missed a continuous Cl(v) by
@@ -639,7 +639,7 @@ impl Params {
 
     /// Duty of the averaged DC operating point with output `vo` (continuous conduction):
     /// `(vo + r·(io + vo/rload))/vin`, `r` the [`Params::switching_resistance`] at that duty
-    /// [1]; the inverse of [`Params::steady_state`], not clamped.
+    /// \[1\]; the inverse of [`Params::steady_state`], not clamped.
     pub fn duty_for(&self, vo: f64, vin: f64, io: f64) -> f64 {
         let il = io + vo * self.load_conductance();
         // r = RL + Rls + d·(Rhs − Rls): linear in d, so the balance d·vin = vo + r·il solves at once.
@@ -650,7 +650,7 @@ impl Params {
 
 /// The three-state circuit `lti` of an inductor path with resistance in its `il` row and
 /// inductance `l`, with the switch node as a fourth state `vsw` in place of the input `u_sw`:
-/// the node's capacitance `csw` ringing with the blocked inductor through `damping` [Ω].
+/// the node's capacitance `csw` ringing with the blocked inductor through `damping` \[Ω\].
 fn ringing(lti: &Lti, l: f64, csw: f64, damping: f64) -> Lti {
     let mut a = DMatrix::zeros(4, 4);
     a.view_mut((0, 0), (3, 3)).copy_from(&lti.a);

@@ -21,7 +21,7 @@ fn loop_gain(p: &Params, (ad, bd): &(DMatrix<Complex<f64>>, DMatrix<Complex<f64>
     pid * plant * zi.powu(delay)
 }
 
-/// Phase margin [°] at each 0 dB crossing and gain margin [dB] at each −180° crossing, from a
+/// Phase margin [°] at each 0 dB crossing and gain margin \[dB\] at each −180° crossing, from a
 /// dense logarithmic sweep 100 Hz – fs/2.
 fn margins(p: &Params, delay: u32) -> (f64, f64) {
     let n = 5_000;

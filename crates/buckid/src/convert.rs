@@ -19,7 +19,7 @@ pub struct ConvertArgs {
     /// The channels must come from one acquisition (the same sample times).
     #[arg(long = "channel", value_name = "NAME=FILE[*SCALE]", value_parser = channel_file)]
     channels: Vec<(String, PathBuf, f64)>,
-    /// Switching frequency [Hz], used when the capture has no switch-node or gate edges.
+    /// Switching frequency \[Hz\], used when the capture has no switch-node or gate edges.
     #[arg(long)]
     fs: Option<f64>,
     /// The capture's own name of a column (repeatable), for an oscilloscope's export:

@@ -23,7 +23,7 @@ struct FmuOut {
     mode: Option<Nominal>,
     /// Circuit values taken from its start values.
     circuit: BTreeMap<&'static str, f64>,
-    /// Cl it was run with (the nominal fit's), when it has a `Cl` parameter [F].
+    /// Cl it was run with (the nominal fit's), when it has a `Cl` parameter \[F\].
     cl: Option<f64>,
     /// Held-out NRMSE of its simulation.
     nrmse: f64,

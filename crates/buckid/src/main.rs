@@ -148,7 +148,7 @@ struct IdentifyArgs {
     /// Also estimate every circuit value (L, RL, C, Rc) the data's metadata does not give.
     #[arg(long)]
     estimate_missing: bool,
-    /// Start value of Cl [F] (default: a grid search over 0.1–300 µF).
+    /// Start value of Cl \[F\] (default: a grid search over 0.1–300 µF).
     #[arg(long)]
     cl_guess: Option<f64>,
     /// Samples used for estimation (FMU runs record half as many again for validation).
@@ -163,10 +163,10 @@ struct IdentifyArgs {
     /// Start value of an FMU variable before initialization (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
-    /// σ of white noise added to the recorded vout [V] (FMU runs).
+    /// σ of white noise added to the recorded vout \[V\] (FMU runs).
     #[arg(long, default_value_t = 0.0)]
     noise_vout: f64,
-    /// σ of white noise added to the recorded il [A] (FMU runs).
+    /// σ of white noise added to the recorded il \[A\] (FMU runs).
     #[arg(long, default_value_t = 0.0)]
     noise_il: f64,
     /// Model structure.
@@ -189,16 +189,16 @@ struct IdentifyArgs {
     /// applied duty (`duty_applied`) and the ADC readings, fit with the Kalman predictor.
     #[arg(long)]
     closed_loop: bool,
-    /// σ of an unmeasured load-current disturbance drawn every period [A] (FMU runs).
+    /// σ of an unmeasured load-current disturbance drawn every period \[A\] (FMU runs).
     #[arg(long, default_value_t = 0.0)]
     load_noise: f64,
     /// Switching periods per PRBS bit.
     #[arg(long, default_value_t = 8)]
     bit_periods: usize,
-    /// Constant load current during the experiment [A].
+    /// Constant load current during the experiment \[A\].
     #[arg(long, default_value_t = 1.0)]
     io: f64,
-    /// Input voltage during the experiment [V].
+    /// Input voltage during the experiment \[V\].
     #[arg(long, default_value_t = 12.0)]
     vin: f64,
     /// Fraction of a data file held out for validation (FMU runs record extra samples instead).

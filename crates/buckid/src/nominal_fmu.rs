@@ -30,11 +30,11 @@ pub struct NominalFmu {
 /// The FMU's run on the data: its held-out simulation and error.
 #[derive(Debug, Clone)]
 pub struct FmuRun {
-    /// `vout` at each period start of the held-out part [V].
+    /// `vout` at each period start of the held-out part \[V\].
     pub simulated: Vec<f64>,
     /// Held-out NRMSE.
     pub nrmse: f64,
-    /// Cl it was run with, when it has a `Cl` parameter [F].
+    /// Cl it was run with, when it has a `Cl` parameter \[F\].
     pub cl: Option<f64>,
 }
 

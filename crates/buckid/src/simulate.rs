@@ -23,13 +23,13 @@ pub struct SimulateArgs {
     /// for a String variable.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
-    /// Start time [s] (default: the DefaultExperiment's startTime, else 0).
+    /// Start time \[s\] (default: the DefaultExperiment's startTime, else 0).
     #[arg(long, allow_negative_numbers = true)]
     start: Option<f64>,
-    /// Stop time [s] (default: the DefaultExperiment's stopTime, else start + 1).
+    /// Stop time \[s\] (default: the DefaultExperiment's stopTime, else start + 1).
     #[arg(long, allow_negative_numbers = true)]
     stop: Option<f64>,
-    /// Communication step [s] (default: the DefaultExperiment's stepSize, else fmpy's automatic
+    /// Communication step \[s\] (default: the DefaultExperiment's stepSize, else fmpy's automatic
     /// interval, 500–1000 steps).
     #[arg(long, allow_negative_numbers = true)]
     step: Option<f64>,

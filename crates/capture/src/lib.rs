@@ -43,17 +43,17 @@ fn data_err(m: impl Into<String>) -> CaptureError {
 /// A capture: samples of each recorded signal at `time`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Capture {
-    /// Sample times [s], strictly increasing.
+    /// Sample times \[s\], strictly increasing.
     pub time: Vec<f64>,
-    /// Output voltage [V].
+    /// Output voltage \[V\].
     pub vout: Vec<f64>,
-    /// Inductor current [A].
+    /// Inductor current \[A\].
     pub il: Option<Vec<f64>>,
-    /// Switch-node voltage [V].
+    /// Switch-node voltage \[V\].
     pub sw: Option<Vec<f64>>,
-    /// Gate drive of the high-side switch [V].
+    /// Gate drive of the high-side switch \[V\].
     pub gate: Option<Vec<f64>>,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: Option<Vec<f64>>,
     /// `# key = value` metadata.
     pub meta: BTreeMap<String, String>,
@@ -112,7 +112,7 @@ impl Capture {
 
     /// [`Capture::parse_csv`] for an oscilloscope's own export: `map` gives the capture's names
     /// of the contract's columns ([`Named`]: `vout` as `CH1`, `time` as `TIME`), the header row
-    /// is the first of the first [`PREAMBLE_LINES`] that names `time` and `vout` (the lines
+    /// is the first of the first `PREAMBLE_LINES` that names `time` and `vout` (the lines
     /// before it, the scope's settings, are skipped), and a row of units right after it
     /// (`second,Volt`) is skipped too.
     pub fn parse_csv_with(text: &str, map: &[Named]) -> Result<Capture, CaptureError> {
@@ -192,21 +192,21 @@ impl Capture {
 /// The capture reduced to one row per complete period (the data contract's columns).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Periods {
-    /// Period starts [s].
+    /// Period starts \[s\].
     pub time: Vec<f64>,
     /// Duty measured per period.
     pub duty: Vec<f64>,
-    /// vout at each period start [V].
+    /// vout at each period start \[V\].
     pub vout: Vec<f64>,
-    /// il at each period start [A].
+    /// il at each period start \[A\].
     pub il: Option<Vec<f64>>,
-    /// vout averaged over each period [V].
+    /// vout averaged over each period \[V\].
     pub vout_avg: Vec<f64>,
-    /// il averaged over each period [A].
+    /// il averaged over each period \[A\].
     pub il_avg: Option<Vec<f64>>,
-    /// vin averaged over each period [V].
+    /// vin averaged over each period \[V\].
     pub vin: Option<Vec<f64>>,
-    /// Mean switching frequency measured [Hz].
+    /// Mean switching frequency measured \[Hz\].
     pub fs: f64,
     /// How the boundaries were found (for the user).
     pub source: String,
@@ -320,7 +320,7 @@ fn at_start(t: &[f64], x: &[f64], a: f64, period: f64, off: Option<f64>) -> f64 
     mx - mt * sxy / sxx
 }
 
-/// Reduces a capture to one row per complete period; `fs` [Hz] is used when the capture has
+/// Reduces a capture to one row per complete period; `fs` \[Hz\] is used when the capture has
 /// no switching edges (else `# fs`).
 pub fn reduce(cap: &Capture, fs: Option<f64>) -> Result<Periods, CaptureError> {
     let t = &cap.time;

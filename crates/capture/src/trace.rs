@@ -9,10 +9,10 @@ use csv_header::number;
 
 use crate::{COLUMNS, Capture, CaptureError, PREAMBLE_LINES, data_err};
 
-/// One channel: its samples' times [s] and values (in the unit the file has them).
+/// One channel: its samples' times \[s\] and values (in the unit the file has them).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trace {
-    /// Sample times [s], strictly increasing.
+    /// Sample times \[s\], strictly increasing.
     pub time: Vec<f64>,
     /// The channel's value at each time.
     pub values: Vec<f64>,
@@ -29,7 +29,7 @@ fn row_delimiter(row: &str) -> u8 {
 impl Trace {
     /// Parses one channel's file. Its samples are the rows with a number in each of the two
     /// columns where its last row has its only two numbers (time, then value); the rows before
-    /// the first of them (at most [`PREAMBLE_LINES`]) are the instrument's notes and are
+    /// the first of them (at most `PREAMBLE_LINES`) are the instrument's notes and are
     /// skipped, and every row from there on must be a sample. `# key = value` lines at the top
     /// are metadata.
     pub fn parse_csv(text: &str) -> Result<Trace, CaptureError> {

@@ -18,9 +18,9 @@ use crate::model::{Circuit, OperatingPoint};
 pub struct Sweep {
     /// The operating points (inputs of the DC model).
     pub points: Vec<OperatingPoint>,
-    /// Measured mean output voltage per point [V].
+    /// Measured mean output voltage per point \[V\].
     pub vout: Vec<f64>,
-    /// Measured mean inductor current per point [A], when recorded.
+    /// Measured mean inductor current per point \[A\], when recorded.
     pub il: Option<Vec<f64>>,
     /// `# key = value` metadata as read.
     pub meta: BTreeMap<String, String>,

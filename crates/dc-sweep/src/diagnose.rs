@@ -32,17 +32,17 @@ use crate::stats::{f_upper_tail, t_quantile};
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum Effect {
-    /// Asynchronous (diode) buck with forward drop `vf` [V]; DCM at light load follows.
+    /// Asynchronous (diode) buck with forward drop `vf` \[V\]; DCM at light load follows.
     DiodeDrop,
-    /// Series resistance `r_series` [Ω] beyond the nominal `RL`, in the inductor path all
+    /// Series resistance `r_series` \[Ω\] beyond the nominal `RL`, in the inductor path all
     /// period: switch on-resistance plus any extra series resistance (design: extra series
     /// resistance counts as `switch_resistance`).
     SwitchResistance,
-    /// Dead time `td` [s] before each turn-on of a synchronous buck.
+    /// Dead time `td` \[s\] before each turn-on of a synchronous buck.
     DeadTime,
     /// Discontinuous conduction: an ideal freewheeling diode (no parameter).
     Dcm,
-    /// The inductance `l` [H] off its nominal value (matters in DC only through DCM).
+    /// The inductance `l` \[H\] off its nominal value (matters in DC only through DCM).
     ParamDrift,
 }
 
@@ -113,7 +113,7 @@ impl Effect {
 pub struct Options {
     /// Least share of the residual power left that an effect must remove (default 0.2).
     pub min_share: f64,
-    /// Least drop of the residual RMS an effect must bring [V] (default 5 mV).
+    /// Least drop of the residual RMS an effect must bring \[V\] (default 5 mV).
     pub min_rms: f64,
     /// Significance level of the F test (default 0.05).
     pub alpha: f64,
@@ -125,13 +125,13 @@ impl Default for Options {
     }
 }
 
-/// Residual size: RMS [V] and NRMSE (RMS over the standard deviation of the measured vout;
+/// Residual size: RMS \[V\] and NRMSE (RMS over the standard deviation of the measured vout;
 /// `None` when the measurements do not vary).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Gap {
     /// NRMSE of the residual.
     pub nrmse: Option<f64>,
-    /// RMS of the residual [V].
+    /// RMS of the residual \[V\].
     pub rms: f64,
 }
 
@@ -140,23 +140,23 @@ pub struct Gap {
 pub struct PointGap {
     /// Duty.
     pub duty: f64,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: f64,
-    /// Constant-current load [A].
+    /// Constant-current load \[A\].
     pub io: f64,
-    /// Load resistor [Ω], if any.
+    /// Load resistor \[Ω\], if any.
     pub rload: Option<f64>,
-    /// Total load current at the measured vout [A].
+    /// Total load current at the measured vout \[A\].
     pub load: f64,
-    /// Measured mean vout [V].
+    /// Measured mean vout \[V\].
     pub measured: f64,
-    /// The nominal model's vout [V].
+    /// The nominal model's vout \[V\].
     pub expected: f64,
-    /// `measured − expected` [V].
+    /// `measured − expected` \[V\].
     pub residual: f64,
-    /// The vout of the nominal model with the selected effects [V].
+    /// The vout of the nominal model with the selected effects \[V\].
     pub fitted: f64,
-    /// `measured − fitted` [V].
+    /// `measured − fitted` \[V\].
     pub residual_after: f64,
 }
 
@@ -177,7 +177,7 @@ pub struct EffectFit {
     pub params: Option<BTreeMap<String, f64>>,
     /// CI95 of each parameter.
     pub ci95: Option<BTreeMap<String, [f64; 2]>>,
-    /// Residual RMS with the effect [V].
+    /// Residual RMS with the effect \[V\].
     pub rms_after: Option<f64>,
     /// Residual NRMSE with the effect.
     pub nrmse_after: Option<f64>,
@@ -267,7 +267,7 @@ pub struct Branch {
     pub topology: &'static str,
     /// The effects it selected, in order.
     pub selected: Vec<&'static str>,
-    /// Residual RMS of its final model [V].
+    /// Residual RMS of its final model \[V\].
     pub rms: f64,
     /// Akaike's criterion `n·ln(SSE/n) + 2·p` of its final model.
     pub aic: f64,

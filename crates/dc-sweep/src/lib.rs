@@ -1,7 +1,7 @@
 //! Steady-state diagnosis of operating-point sweeps: the averaged DC model of a buck converter
 //! with its non-ideal effects ([`model`]: CCM and DCM, current and resistive load, diode drop,
 //! series resistance, dead time), read from a sweep file ([`data`]), and which effects explain
-//! the gap between the measured mean output voltages and the nominal model ([`diagnose`]:
+//! the gap between the measured mean output voltages and the nominal model ([`diagnose()`]:
 //! nonlinear least squares with CI95, forward selection of material, significant effects).
 //!
 //! Its one job is the DC view: a sweep of steady operating points cannot show dynamics (`Cl`,

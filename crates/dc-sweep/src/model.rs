@@ -39,16 +39,16 @@ use crate::error::{SweepError, model_err};
 /// Circuit values of the nominal model that matter in DC.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Circuit {
-    /// Inductance [H] (sets the DCM boundary and the ripple at the dead-time edges).
+    /// Inductance \[H\] (sets the DCM boundary and the ripple at the dead-time edges).
     pub l: f64,
-    /// Series resistance of the inductor [Ω].
+    /// Series resistance of the inductor \[Ω\].
     pub rl: f64,
-    /// Switching frequency [Hz].
+    /// Switching frequency \[Hz\].
     pub fs: f64,
-    /// On-resistance of the switches [Ω], in the path while a switch conducts (as
+    /// On-resistance of the switches \[Ω\], in the path while a switch conducts (as
     /// `buck_model::Params::switch_resistance`).
     pub rds_on: f64,
-    /// Drop of the body diodes that conduct during dead time [V].
+    /// Drop of the body diodes that conduct during dead time \[V\].
     pub body_diode_drop: f64,
 }
 
@@ -65,11 +65,11 @@ pub struct Effects {
     /// Asynchronous buck: a freewheeling diode instead of the low-side switch (DCM at light
     /// load follows).
     pub diode: bool,
-    /// Forward drop of the freewheeling diode [V] (asynchronous buck).
+    /// Forward drop of the freewheeling diode \[V\] (asynchronous buck).
     pub diode_drop: f64,
-    /// Extra series resistance in the inductor path all period [Ω] (beside `RL`).
+    /// Extra series resistance in the inductor path all period \[Ω\] (beside `RL`).
     pub r_series: f64,
-    /// Dead time before each turn-on [s] (synchronous buck).
+    /// Dead time before each turn-on \[s\] (synchronous buck).
     pub dead_time: f64,
 }
 
@@ -78,21 +78,21 @@ pub struct Effects {
 pub struct OperatingPoint {
     /// Duty of the PWM signal (0..1).
     pub duty: f64,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: f64,
-    /// Constant-current part of the load [A].
+    /// Constant-current part of the load \[A\].
     pub io: f64,
-    /// Resistive part of the load [Ω] (`None`: none).
+    /// Resistive part of the load \[Ω\] (`None`: none).
     pub rload: Option<f64>,
 }
 
 impl OperatingPoint {
-    /// Load conductance [S] (0 without a resistor).
+    /// Load conductance \[S\] (0 without a resistor).
     pub fn conductance(&self) -> f64 {
         self.rload.map_or(0.0, |r| 1.0 / r)
     }
 
-    /// Total load current at the output voltage `vout` [A].
+    /// Total load current at the output voltage `vout` \[A\].
     pub fn load_current(&self, vout: f64) -> f64 {
         self.io + vout * self.conductance()
     }
@@ -110,9 +110,9 @@ pub enum Conduction {
 /// The solved operating point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DcPoint {
-    /// Mean output voltage [V].
+    /// Mean output voltage \[V\].
     pub vout: f64,
-    /// Mean inductor current [A] (the total load current).
+    /// Mean inductor current \[A\] (the total load current).
     pub il: f64,
     /// Conduction mode.
     pub conduction: Conduction,

@@ -37,13 +37,13 @@ fn arg(name: &str) -> Option<String> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1).cloned())
 }
 
-/// The load resistor of every plant [Ω] (`--rload`, 0 = none).
+/// The load resistor of every plant \[Ω\] (`--rload`, 0 = none).
 fn rload() -> f64 {
     static RLOAD: OnceLock<f64> = OnceLock::new();
     *RLOAD.get_or_init(|| arg("--rload").map_or(0.0, |s| s.parse().expect("--rload R: a number of ohms")))
 }
 
-/// The plant's circuit with this Cl [F].
+/// The plant's circuit with this Cl \[F\].
 fn circuit(cl: f64) -> Params {
     Params { cl, rload: rload(), ..Params::default() }
 }

@@ -20,7 +20,7 @@ pub struct Validation {
 /// Signals for plots, over the held-out samples.
 #[derive(Debug, Clone, Default)]
 pub struct Traces {
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub time: Vec<f64>,
     /// Measured first output.
     pub measured: Vec<f64>,
@@ -39,6 +39,6 @@ pub struct Candidate {
     pub fit: Fit,
     /// Its validation on the held-out data.
     pub validation: Validation,
-    /// Wall time of the fit alone [s].
+    /// Wall time of the fit alone \[s\].
     pub seconds: f64,
 }

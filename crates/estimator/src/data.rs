@@ -21,27 +21,27 @@ pub const MAX_OUTPUT_SHARE: f64 = 1.5;
 /// Measured or simulated signals at one sample per switching period.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DataSet {
-    /// Period start times [s], uniformly spaced by `1/fs`.
+    /// Period start times \[s\], uniformly spaced by `1/fs`.
     pub time: Vec<f64>,
     /// Duty applied during each period.
     pub duty: Vec<f64>,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: Vec<f64>,
-    /// Load current [A].
+    /// Load current \[A\].
     pub io: Vec<f64>,
-    /// Output voltage at each period start [V].
+    /// Output voltage at each period start \[V\].
     pub vout: Vec<f64>,
-    /// Inductor current at each period start [A], when measured.
+    /// Inductor current at each period start \[A\], when measured.
     pub il: Option<Vec<f64>>,
-    /// Average output voltage over each period [V], when available.
+    /// Average output voltage over each period \[V\], when available.
     pub vout_avg: Option<Vec<f64>>,
-    /// Average inductor current over each period [A], when available.
+    /// Average inductor current over each period \[A\], when available.
     pub il_avg: Option<Vec<f64>>,
     /// `# key = value` metadata (e.g. `fs`, `L`, `U`), as read or to be written.
     pub meta: BTreeMap<String, String>,
 }
 
-/// Metadata key (and optional constant column) of the load resistance [Ω].
+/// Metadata key (and optional constant column) of the load resistance \[Ω\].
 pub const RLOAD: &str = "rload";
 
 /// How far a step between rows may differ from their mean spacing, in periods.
@@ -81,7 +81,7 @@ impl DataSet {
         self.time.is_empty()
     }
 
-    /// Sample period [s] (the switching period).
+    /// Sample period \[s\] (the switching period).
     pub fn sample_period(&self) -> f64 {
         if self.len() < 2 { f64::NAN } else { (self.time[self.len() - 1] - self.time[0]) / (self.len() - 1) as f64 }
     }
@@ -91,7 +91,7 @@ impl DataSet {
         self.meta.get(key).map(|v| v.trim().parse::<f64>().map_err(|_| data_err(format!("metadata `{key} = {v}` is not a number")))).transpose()
     }
 
-    /// Load resistance `rload` [Ω] from the metadata `# rload = R` (a `rload` column is folded
+    /// Load resistance `rload` \[Ω\] from the metadata `# rload = R` (a `rload` column is folded
     /// into it when read): 0 (no resistor) when absent; negative or non-finite values are an
     /// error.
     ///
@@ -222,7 +222,7 @@ impl DataSet {
     /// Reads the CSV contract: `# key = value` lines, one header row, SI units; `time` and
     /// `vout` required; `duty`, `vin`, `io`, `il`, `vout_avg`, `il_avg` optional (missing
     /// `duty`/`vin`/`io` are taken from metadata `duty`, `U`, `io` or are an error); a load
-    /// resistance [Ω] from metadata `rload` or a constant `rload` column (see
+    /// resistance \[Ω\] from metadata `rload` or a constant `rload` column (see
     /// [`DataSet::rload`]); unknown columns ignored.
     pub fn read_csv(path: &Path) -> Result<DataSet, EstimatorError> {
         let bytes = std::fs::read(path).map_err(|source| EstimatorError::Io { path: path.display().to_string(), source })?;

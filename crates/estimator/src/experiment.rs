@@ -118,15 +118,15 @@ pub struct Experiment {
     pub warmup: usize,
     /// Duty excitation.
     pub prbs: Prbs,
-    /// Constant load current [A].
+    /// Constant load current \[A\].
     pub io: f64,
-    /// Input voltage [V].
+    /// Input voltage \[V\].
     pub vin: f64,
-    /// Standard deviation of white noise added to `vout` (and `vout_avg`) [V].
+    /// Standard deviation of white noise added to `vout` (and `vout_avg`) \[V\].
     pub noise_vout: f64,
-    /// Standard deviation of white noise added to `il` (and `il_avg`) [A].
+    /// Standard deviation of white noise added to `il` (and `il_avg`) \[A\].
     pub noise_il: f64,
-    /// Standard deviation of an unmeasured load-current disturbance [A], drawn afresh every
+    /// Standard deviation of an unmeasured load-current disturbance \[A\], drawn afresh every
     /// period and applied to the plant (process noise); the recorded `io` stays the nominal.
     pub noise_load: f64,
     /// Seed of the noise.
@@ -145,9 +145,9 @@ impl Default for Experiment {
 /// Raw samples a plant returns for one period (before noise).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PeriodSample {
-    /// Output voltage at the period start [V].
+    /// Output voltage at the period start \[V\].
     pub vout: f64,
-    /// Inductor current at the period start [A], when the plant has one.
+    /// Inductor current at the period start \[A\], when the plant has one.
     pub il: Option<f64>,
     /// Averages over the period, when the plant offers them: `(vout, il)`.
     pub average: Option<(f64, f64)>,
@@ -158,7 +158,7 @@ pub struct PeriodSample {
 /// Anything that can be driven one switching period at a time: our model in process, an FMU,
 /// a third-party model. Implementations keep their own notion of time.
 pub trait Plant {
-    /// Switching frequency [Hz] the experiment steps at.
+    /// Switching frequency \[Hz\] the experiment steps at.
     fn switching_frequency(&self) -> f64;
     /// Sets the inputs and starts at the operating point of these inputs (period start).
     fn start(&mut self, duty: f64, io: f64, vin: f64) -> Result<(), EstimatorError>;

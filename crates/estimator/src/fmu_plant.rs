@@ -29,7 +29,7 @@ pub struct FmuOptions {
     /// Start values applied only when the FMU has a variable of that name and `set` does not
     /// name it (e.g. `mode = 2` selects switched mode in our FMU, ignored by others).
     pub defaults: Vec<(String, f64)>,
-    /// Switching frequency [Hz] when the FMU has no `fs` parameter (default 330 kHz).
+    /// Switching frequency \[Hz\] when the FMU has no `fs` parameter (default 330 kHz).
     pub fs: Option<f64>,
 }
 
@@ -116,7 +116,7 @@ impl FmuPlant {
         Ok(Self { instance, fmu, roles, settings, fs, periods: 0, source })
     }
 
-    /// Sets the input voltage [V] for the periods that follow (for data whose `vin` varies;
+    /// Sets the input voltage \[V\] for the periods that follow (for data whose `vin` varies;
     /// [`Plant::start`] sets the first value). A no-op when the FMU has no `vin` role.
     pub fn set_vin(&mut self, vin: f64) -> Result<(), EstimatorError> {
         self.set("vin", vin)

@@ -27,7 +27,7 @@ pub struct IdentifyOptions {
     pub free: Vec<Free>,
     /// Disturbance model.
     pub noise: NoiseModel,
-    /// Start value of `Cl` [F] (`None`: grid search).
+    /// Start value of `Cl` \[F\] (`None`: grid search).
     pub cl_guess: Option<f64>,
     /// Fraction of the samples, at the end, held out for validation.
     pub holdout: f64,

@@ -11,12 +11,12 @@
 //! A column is taken as measured when fewer than half of its rows repeat the row before exactly
 //! (a commanded level repeats for periods on end). Its white noise is estimated from its fourth
 //! differences (their median, so that the steps do not count), and the column is replaced by
-//! its levels: in each segment between its own jumps beyond [`STEP_SIGMAS`] of its noise where
+//! its levels: in each segment between its own jumps beyond `STEP_SIGMAS` of its noise where
 //! the duty holds (a load step), the least-squares line in the duty where its slope is
 //! significant (a supply sags with the current it delivers), else the mean. Averaging only
 //! between the duty's steps left a segment's mean of 15 rows, whose error, a quarter of the
 //! noise, still reached vout at the duty's gain. The column is replaced only where it is such
-//! levels plus white noise: the spread about them must be the noise's ([`MAX_SPREAD_RATIO`]); a
+//! levels plus white noise: the spread about them must be the noise's (`MAX_SPREAD_RATIO`); a
 //! load that varies by itself (a sine, a ramp) is left as recorded.
 
 use serde::Serialize;
@@ -123,7 +123,7 @@ pub fn average_measured(data: &DataSet) -> (DataSet, Vec<MeasuredInput>) {
 /// on the difference, the response to the noise (both differenced once). A converter that saw
 /// it shows that response (coefficient near 1); an instrument's noise leaves the residual blind
 /// to it (near 0). The noise is taken as seen where the coefficient exceeds ½ at
-/// [`SEEN_SIGMAS`] standard errors (the model's own miss of vout is no function of a white
+/// `SEEN_SIGMAS` standard errors (the model's own miss of vout is no function of a white
 /// noise, whatever the effects it lacks). Comparing the held-out errors of the two fits instead
 /// chose the recorded noise on 6 of 36 third-generator boards with noise added, where the
 /// nominal missed by tens of per cent and the two errors differed in the fifth digit.

@@ -492,7 +492,7 @@ pub struct Model {
     pub u: Vec<f64>,
     /// Measured outputs of each sample, `ny` values each.
     pub y: Vec<f64>,
-    /// Switching period [s].
+    /// Switching period \[s\].
     period: f64,
     /// Mean `vin` and `io` of the data: the operating point of the exact model's orbits.
     operating: (f64, f64),
@@ -929,7 +929,7 @@ impl Model {
 }
 
 /// Frequency response duty → vout of the averaged continuous model at `vin` volts:
-/// `G(j2πf) = c·(j2πf·I − A)⁻¹·b·vin` for each frequency [Hz].
+/// `G(j2πf) = c·(j2πf·I − A)⁻¹·b·vin` for each frequency \[Hz\].
 pub fn frequency_response(p: &Params, vin: f64, freqs: &[f64]) -> Vec<nalgebra::Complex<f64>> {
     use nalgebra::Complex;
     let a = build(FULL_A, 3, 3, p, None).map(|x| Complex::new(x, 0.0));

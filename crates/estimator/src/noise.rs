@@ -5,7 +5,7 @@
 //! Between input steps the converter's outputs are smooth at one sample per period (its poles
 //! are far below the sampling rate), so a fourth difference of a channel there is almost pure
 //! noise: `Δ⁴e` of white noise has variance `C(8,4)·σ² = 70·σ²`. Only differences whose
-//! window, and the [`SETTLE`] samples before it, see one constant input are used: a step in
+//! window, and the `SETTLE` samples before it, see one constant input are used: a step in
 //! the duty kinks the output (the inductor current's slope jumps, and the ESR passes it on),
 //! and the fast charge-sharing mode between C and Cl dies out within a few periods; a duty
 //! applied up to two periods late (`delay`) moves the kink by as much.
@@ -30,8 +30,8 @@ const SETTLE: usize = 4;
 /// Fewest usable differences for an estimate.
 const MIN_DIFFERENCES: usize = 100;
 
-/// Standard deviation of the white noise on `data.vout` [V], or `None` when the inputs step
-/// too often to leave [`MIN_DIFFERENCES`] quiet windows.
+/// Standard deviation of the white noise on `data.vout` \[V\], or `None` when the inputs step
+/// too often to leave `MIN_DIFFERENCES` quiet windows.
 pub fn noise_floor(data: &DataSet) -> Option<f64> {
     noise_floor_estimate(data).map(|(sigma, _)| sigma)
 }
@@ -44,7 +44,7 @@ pub fn noise_floor_estimate(data: &DataSet) -> Option<(f64, usize)> {
 
 /// Standard deviation of the white noise on `series` (a channel of `data`, sample for sample)
 /// and the number of fourth differences it was estimated from, or `None` when the inputs step
-/// too often to leave [`MIN_DIFFERENCES`] quiet windows.
+/// too often to leave `MIN_DIFFERENCES` quiet windows.
 pub fn white_noise(data: &DataSet, series: &[f64]) -> Option<(f64, usize)> {
     let n = data.len().min(series.len());
     let span = ORDER + SETTLE;

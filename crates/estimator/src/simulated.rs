@@ -51,7 +51,7 @@ pub const MAX_SAMPLE_DELAY: f64 = 0.95;
 /// Forward-difference step in `ln θ`.
 const FD_STEP: f64 = 1e-4;
 
-/// Forward-difference steps of the initial state's unknowns ([`Start::unknowns`]): [V], [A].
+/// Forward-difference steps of the initial state's unknowns ([`Start::unknowns`]): \[V\], \[A\].
 const START_STEPS: [f64; Start::UNKNOWNS] = [1e-4, 1e-4];
 
 /// Start values of Cl tried besides the given one, as multiples of the main capacitance C (half
@@ -105,9 +105,9 @@ pub enum Criterion {
 /// their series capacitance, a fraction of a period to a few) within the samples left out.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Start {
-    /// Voltage of both capacitors [V].
+    /// Voltage of both capacitors \[V\].
     pub v0: f64,
-    /// Inductor current above the DC point's [A].
+    /// Inductor current above the DC point's \[A\].
     pub dil: f64,
 }
 
@@ -165,7 +165,7 @@ pub fn simulate_outputs(p: &Params, data: &DataSet, start: impl Into<Start>) -> 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Operation {
     /// The output voltage averaged over the whole record in time (each period's exact average),
-    /// the readings' errors left out [V]: the operating point a DC-biased ceramic sits at. The
+    /// the readings' errors left out \[V\]: the operating point a DC-biased ceramic sits at. The
     /// samples' mean is not: they are all taken at one phase of the ripple.
     pub vout_time_mean: f64,
     /// Share of the periods that a diode buck starts with its inductor current at zero, the
@@ -173,7 +173,7 @@ pub struct Operation {
     pub dcm_share: f64,
 }
 
-/// Inductor current at a period start [A] at or below which a diode buck's diode has blocked:
+/// Inductor current at a period start \[A\] at or below which a diode buck's diode has blocked:
 /// the blocked inductor holds exactly zero, conduction at this level is none.
 const BLOCKED_IL: f64 = 1e-9;
 

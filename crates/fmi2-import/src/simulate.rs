@@ -25,14 +25,14 @@ fn isclose(a: f64, b: f64) -> bool {
     a == b || (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
 }
 
-/// Start and stop time and communication step [s].
+/// Start and stop time and communication step \[s\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Experiment {
-    /// Start time [s].
+    /// Start time \[s\].
     pub start: f64,
-    /// Stop time [s].
+    /// Stop time \[s\].
     pub stop: f64,
-    /// Communication step [s]; the last step is shortened to end at `stop` when the FMU can
+    /// Communication step \[s\]; the last step is shortened to end at `stop` when the FMU can
     /// handle a variable step.
     pub step: f64,
 }
@@ -171,7 +171,7 @@ impl Inputs {
 pub struct Recording {
     /// The recorded variables, in the order asked.
     pub variables: Vec<Variable>,
-    /// Each communication point [s], the start included.
+    /// Each communication point \[s\], the start included.
     pub time: Vec<f64>,
     /// One value per variable at each communication point.
     pub rows: Vec<Vec<Value>>,

@@ -13,9 +13,9 @@ use anyhow::Result;
 use fmi2_import::{Fmu, ImportError, Instance, InstantiateOptions, Status, VarKind};
 use fmu_fixture::root;
 
-/// Switching period of the thesis converter [s].
+/// Switching period of the thesis converter \[s\].
 const T: f64 = 1.0 / 330e3;
-/// Steady-state tolerance on voltages [V] and currents [A] after 2000 periods (≈180 time
+/// Steady-state tolerance on voltages \[V\] and currents \[A\] after 2000 periods (≈180 time
 /// constants 2L/(RL+Rc) = 33 µs, so the transient is far below this).
 const TOL: f64 = 1e-6;
 

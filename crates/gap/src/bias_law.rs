@@ -23,15 +23,15 @@ use crate::select::Stack;
 pub struct BiasLawSpread {
     /// The law of the final model.
     pub law: &'static str,
-    /// Cl under the final model's law [F].
+    /// Cl under the final model's law \[F\].
     pub law_cl: f64,
-    /// Its CI95 [F].
+    /// Its CI95 \[F\].
     pub law_ci95: [f64; 2],
     /// The other law, refitted.
     pub other: &'static str,
-    /// Cl under the other law [F].
+    /// Cl under the other law \[F\].
     pub other_cl: f64,
-    /// Its CI95 [F].
+    /// Its CI95 \[F\].
     pub other_ci95: [f64; 2],
     /// `n·ln(σ²_other/σ²_final)` over the `n` held-out samples (the two laws have as many
     /// parameters): positive where the final law predicts better.

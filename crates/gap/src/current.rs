@@ -42,12 +42,12 @@ pub struct CurrentMisfit {
     /// The probe gain the measured current needs to match the model's (1: none).
     pub probe_gain: f64,
     /// The RMS of the measured current beyond what a gain within [`PROBE_GAIN_TOLERANCE`]
-    /// explains [A].
+    /// explains \[A\].
     pub beyond_tolerance: f64,
-    /// The white-noise floor of the measured current [A].
+    /// The white-noise floor of the measured current \[A\].
     pub floor: f64,
     /// The RMS of the measured current's swing the model's explains through the probe gain
-    /// [A]: only a swing well above the floor tells how the reading slipped.
+    /// \[A\]: only a swing well above the floor tells how the reading slipped.
     #[serde(skip)]
     pub explained: f64,
 }
@@ -92,7 +92,7 @@ impl CurrentMisfit {
     }
 
     /// The model's impedance is not the converter's: the current left beyond a tolerable probe
-    /// gain exceeds [`MISFIT_FLOORS`] noise floors.
+    /// gain exceeds `MISFIT_FLOORS` noise floors.
     pub fn contradicts(&self) -> bool {
         self.beyond_tolerance > MISFIT_FLOORS * self.floor
     }
@@ -137,7 +137,7 @@ impl CurrentMisfit {
 pub struct ProbeExact {
     /// The probe gain the measured current needs ([`CurrentMisfit::probe_gain`]).
     pub probe_gain: f64,
-    /// Cl with the probe exact [F]: the output's capacitance scaled by the gain, C kept.
+    /// Cl with the probe exact \[F\]: the output's capacitance scaled by the gain, C kept.
     pub cl: f64,
 }
 

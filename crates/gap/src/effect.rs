@@ -101,9 +101,9 @@ fn identified(ci95: &BTreeMap<String, [f64; 2]>) -> bool {
 /// How Cl's estimate moved once the effect was added.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClMove {
-    /// Estimate with the effect [F].
+    /// Estimate with the effect \[F\].
     pub estimate: f64,
-    /// Its 95 % confidence interval [F].
+    /// Its 95 % confidence interval \[F\].
     pub ci95: [f64; 2],
     /// Change against the nominal fit [%].
     pub moved_percent: f64,
@@ -132,14 +132,14 @@ pub struct ClMove {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub deep_dcm_miss: Option<DeepDcmMiss>,
     /// For a final model whose bias law the diagnosis anchored: the operating point Cl is
-    /// reported at, the output voltage averaged in time [V] ([`crate::bias_law::operating_point`]).
+    /// reported at, the output voltage averaged in time \[V\] (`crate::bias_law::operating_point`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub operating_point: Option<f64>,
     /// For a final model at the floor: an equally good model from another first step
-    /// ([`crate::select::twin`]) whose Cl lies outside its interval; else the model the joint
+    /// (`crate::select::twin`) whose Cl lies outside its interval; else the model the joint
     /// refit pruned to the final one, where the effect pruned was physical and Cl lies outside
     /// (a drift of C that Cl took up); or the final model with Cl's capacitance moved into C, or
-    /// C's drift moved into Cl, as good held out, where Cl lies outside ([`crate::ridge`]).
+    /// C's drift moved into Cl, as good held out, where Cl lies outside (`crate::ridge`).
     /// The interval spans each, and each is named, in the order it widened the interval.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub twins: Vec<Twin>,
@@ -168,9 +168,9 @@ pub struct Twin {
     pub selected: Vec<String>,
     /// Its held-out residual [V RMS].
     pub rms_after: f64,
-    /// Its Cl [F].
+    /// Its Cl \[F\].
     pub cl: f64,
-    /// Cl's 95 % confidence interval under it [F].
+    /// Cl's 95 % confidence interval under it \[F\].
     pub ci95: [f64; 2],
 }
 
@@ -204,9 +204,9 @@ pub struct ReadLate {
     /// The instant fitted: `sample_delay` (the model read at the period start) or `vout_skew`
     /// (vout read apart from il, whose instant the model holds).
     pub instant: &'static str,
-    /// Its fitted value [s]: after each period start, or after il's reading.
+    /// Its fitted value \[s\]: after each period start, or after il's reading.
     pub value: f64,
-    /// Its 95 % confidence interval [s].
+    /// Its 95 % confidence interval \[s\].
     pub value_ci95: [f64; 2],
     /// What it is weighed against: the final model it is added to, or the effects it replaces.
     #[serde(flatten)]
@@ -216,9 +216,9 @@ pub struct ReadLate {
     /// It closes a material share of the gap the final model leaves ([`MATERIAL_SHARE`]; the
     /// forward selection took another effect, or none, before it).
     pub material: bool,
-    /// Cl so read [F].
+    /// Cl so read \[F\].
     pub cl: f64,
-    /// Cl's 95 % confidence interval so read [F].
+    /// Cl's 95 % confidence interval so read \[F\].
     pub ci95: [f64; 2],
 }
 
@@ -445,7 +445,7 @@ pub struct EffectFit {
     pub cl: ClMove,
     /// Held-out NRMSE of the simulation with the effect.
     pub nrmse_after: f64,
-    /// Held-out RMS of the residual with the effect [V].
+    /// Held-out RMS of the residual with the effect \[V\].
     pub rms_after: f64,
     /// How much the held-out NRMSE shrank [%] (sensor noise included: no model can remove it).
     pub shrink_percent: f64,
@@ -489,7 +489,7 @@ pub struct EffectFit {
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub within_tolerance: bool,
     /// One of the effect's parameters ended on a bound of its range, or a drift beyond
-    /// [`MAX_DRIFT`] (or, as a step on top of a model, it took Cl: [`EffectFit::into_step`]): the
+    /// `MAX_DRIFT` (or, as a step on top of a model, it took Cl: `EffectFit::into_step`): the
     /// fit has not converged to something physical, whatever it closes.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub at_bound: bool,
@@ -527,7 +527,7 @@ pub struct EffectFit {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cl_test_failed_without: Option<f64>,
     /// For a selected effect: the other findings of its step that explain the gap alike
-    /// ([`Alike::of`]), which this data does not tell from it.
+    /// (`Alike::of`), which this data does not tell from it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub alike: Vec<Alike>,
     /// Held-out simulation residual (for the noise floor).
@@ -561,8 +561,8 @@ impl EffectFit {
     }
 
     /// What a fitted value says where it lies beyond the device it names: a diode's drop above
-    /// [`MAX_DIODE_DROP`], a current probe's gain error beyond
-    /// [`crate::current::PROBE_GAIN_TOLERANCE`], a vout reading's beyond [`MAX_GAIN_ERROR`].
+    /// `MAX_DIODE_DROP`, a current probe's gain error beyond
+    /// [`crate::current::PROBE_GAIN_TOLERANCE`], a vout reading's beyond `MAX_GAIN_ERROR`.
     /// A step on the way may take such a value (a lab buck's diode alone took 2.4 V, 0.91 V
     /// once the switches and L were beside it); in a final model it stands in for what the
     /// model lacks: third-generator diode bucks in deep DCM with L 10–18 % high kept 3.4–4.9 V
@@ -894,9 +894,9 @@ pub struct Alike {
     pub params: BTreeMap<String, f64>,
     /// CI95 of each parameter.
     pub ci95: BTreeMap<String, [f64; 2]>,
-    /// Held-out RMS residual with it in place of the effect taken [V].
+    /// Held-out RMS residual with it in place of the effect taken \[V\].
     pub rms_after: f64,
-    /// Cl with it in place of the effect taken [F].
+    /// Cl with it in place of the effect taken \[F\].
     pub cl: f64,
 }
 
@@ -935,22 +935,22 @@ impl Alike {
 pub(crate) struct Baseline {
     /// Held-out NRMSE of the nominal model.
     pub nrmse: f64,
-    /// Held-out residual RMS of the nominal model [V].
+    /// Held-out residual RMS of the nominal model \[V\].
     pub rms: f64,
-    /// Cl of the nominal fit [F].
+    /// Cl of the nominal fit \[F\].
     pub cl: f64,
-    /// Sensor-noise RMS [V], when known.
+    /// Sensor-noise RMS \[V\], when known.
     pub floor: Option<f64>,
     /// Fourth differences the floor was estimated from.
     pub floor_samples: usize,
     /// Held-out samples.
     pub held_out: usize,
-    /// RMS of the held-out `vout` about its mean [V]: the output's swing under the excitation,
+    /// RMS of the held-out `vout` about its mean \[V\]: the output's swing under the excitation,
     /// the scale of what is material to an engineer ([`MATERIAL_OF_SWING`]).
     pub swing: f64,
     /// Relative tolerance of the nominal circuit values (a drift within it is no finding).
     pub tolerance: f64,
-    /// The nominal series resistance of the inductor's path, `RL` [Ω]: a resistance added in
+    /// The nominal series resistance of the inductor's path, `RL` \[Ω\]: a resistance added in
     /// series within `tolerance` of it is a drift of RL within tolerance.
     pub rl: f64,
     /// The record's smallest and largest duties (where a reading locked to the PWM comes
@@ -963,7 +963,7 @@ pub(crate) struct Baseline {
 pub(crate) const MIN_GAP_OVER_FLOOR: f64 = 0.1;
 
 /// Whether a residual of RMS `rms` misses by more than a noise floor of RMS `floor`: its power
-/// above the floor's exceeds [`MIN_GAP_OVER_FLOOR`] of the floor's (else the gap is within the
+/// above the floor's exceeds `MIN_GAP_OVER_FLOOR` of the floor's (else the gap is within the
 /// floor's own uncertainty).
 pub fn gap_above(rms: f64, floor: f64) -> bool {
     rms.powi(2) - floor.powi(2) > MIN_GAP_OVER_FLOOR * floor.powi(2)
@@ -1237,7 +1237,7 @@ const INFLATION_LAGS: usize = 24;
 
 /// How much wider an interval must be when the residual is coloured by model error: the
 /// long-run variance of the residual over its variance, `1 + 2·Σ (1 − k/(L+1))·ρ(k)` (Bartlett
-/// weights, `L` = [`INFLATION_LAGS`]), at least 1. The fit's `s²(JᵀJ)⁻¹` assumes white
+/// weights, `L` = `INFLATION_LAGS`), at least 1. The fit's `s²(JᵀJ)⁻¹` assumes white
 /// residuals; with a smooth sensitivity (Cl's is) the estimate's variance grows by about this
 /// factor when they are not. Near 1 for a right model.
 pub fn model_error_inflation(residual: &[f64]) -> f64 {
@@ -1560,13 +1560,13 @@ pub(crate) fn il_calibration(p: &Params) -> [(String, f64); 2] {
 /// The test of Cl's interval.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClCheck {
-    /// Cl of the output-error fit, the one tested [F].
+    /// Cl of the output-error fit, the one tested \[F\].
     pub estimate: f64,
-    /// Cl fitted through the high-pass criterion, same parameters free [F].
+    /// Cl fitted through the high-pass criterion, same parameters free \[F\].
     pub high_pass: f64,
-    /// Its CI95 [F].
+    /// Its CI95 \[F\].
     pub high_pass_ci95: [f64; 2],
-    /// The output-error fit's own CI95, which assumes the model is right [F].
+    /// The output-error fit's own CI95, which assumes the model is right \[F\].
     pub model_ci95: [f64; 2],
     /// Hausman statistic of the difference in `ln Cl` (χ²₁ when the model is right).
     pub hausman: f64,
@@ -1685,7 +1685,7 @@ pub(crate) const MAX_FILTER: f64 = 2.0;
 /// 21 % gain error, its diode's fit having ended on its bound.
 pub(crate) const MAX_GAIN_ERROR: f64 = 0.1;
 
-/// Largest forward drop of a freewheeling diode [V]: a Schottky drops 0.2–0.7 V, a fast silicon
+/// Largest forward drop of a freewheeling diode \[V\]: a Schottky drops 0.2–0.7 V, a fast silicon
 /// diode up to about 1.3 V and a SiC Schottky up to about 1.8 V at its rated current.
 pub(crate) const MAX_DIODE_DROP: f64 = 2.0;
 

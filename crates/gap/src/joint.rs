@@ -56,7 +56,7 @@ impl Group {
 /// costing a round of fits per effect pruned, would not change.
 const MISS_FLOORS: f64 = 2.0;
 
-/// The load capacitor's ESR the joint refit starts from [Ω] (a ceramic's or a polymer's is a
+/// The load capacitor's ESR the joint refit starts from \[Ω\] (a ceramic's or a polymer's is a
 /// few mΩ; vout is linear in it).
 const LOAD_ESR_START: f64 = 1e-3;
 

@@ -78,12 +78,12 @@ pub enum GapError {
 pub struct Traces {
     /// Index of the first held-out sample in the data.
     pub start: usize,
-    /// Measured `vout` [V].
+    /// Measured `vout` \[V\].
     pub measured: Vec<f64>,
-    /// Nominal model's free-run simulation [V].
+    /// Nominal model's free-run simulation \[V\].
     pub nominal: Vec<f64>,
     /// Simulation of the final model, every selected effect added (`None` when the verdict is
-    /// `none`) [V].
+    /// `none`) \[V\].
     pub after: Option<Vec<f64>>,
 }
 
@@ -95,12 +95,12 @@ pub struct Before {
     pub model: &'static str,
     /// Held-out NRMSE of the nominal model's simulation.
     pub nrmse: f64,
-    /// Held-out residual RMS of the nominal model's simulation [V].
+    /// Held-out residual RMS of the nominal model's simulation \[V\].
     pub rms: f64,
-    /// Cl of the nominal fit [F] (when the verdict is `none` and the high-pass refit agrees and
+    /// Cl of the nominal fit \[F\] (when the verdict is `none` and the high-pass refit agrees and
     /// is the more precise, that one's; see [`ClCheck`]).
     pub cl: f64,
-    /// Its CI95 [F]: the model's own, or, when the verdict is `none`, the one the interval's
+    /// Its CI95 \[F\]: the model's own, or, when the verdict is `none`, the one the interval's
     /// test reports (see [`ClCheck`]).
     pub cl_ci95: [f64; 2],
     /// The test of the interval when the verdict is `none`.
@@ -243,7 +243,7 @@ pub struct Diagnosis {
 
 impl Diagnosis {
     /// Cl of the model the diagnosis ends with (the last selected effect's, or the nominal's
-    /// when the verdict is `none`): estimate [F], CI95 [F], and a sentence on the interval's test.
+    /// when the verdict is `none`): estimate \[F\], CI95 \[F\], and a sentence on the interval's test.
     pub fn final_cl(&self) -> (f64, [f64; 2], String) {
         let cl = self.final_cl_move();
         (cl.estimate, cl.ci95, cl.sentence(self.cl_at_fidelity.then_some((self.cl_fidelity, self.cl_circuit_fidelity))))

@@ -28,7 +28,7 @@ const LINEAR_AT_ZERO: [(&str, Free, f64); 7] = [
 ];
 
 /// Upper limits by effect name, on the first `n_est` samples of `data`, for the circuit
-/// `nominal` (Cl as fitted) with sensor noise `sigma` [V]; effects whose simulation fails are
+/// `nominal` (Cl as fitted) with sensor noise `sigma` \[V\]; effects whose simulation fails are
 /// left out.
 pub(crate) fn upper_limits(data: &DataSet, nominal: &Params, sigma: f64, n_est: usize) -> BTreeMap<&'static str, f64> {
     let estimation = data.slice(0..n_est);

@@ -8,11 +8,11 @@ use serde::Serialize;
 /// Residual power in one frequency band.
 #[derive(Debug, Clone, Serialize)]
 pub struct Band {
-    /// Lower band edge [Hz].
+    /// Lower band edge \[Hz\].
     pub from_hz: f64,
-    /// Upper band edge [Hz].
+    /// Upper band edge \[Hz\].
     pub to_hz: f64,
-    /// Mean residual power spectral density against the floor's in this band [dB].
+    /// Mean residual power spectral density against the floor's in this band \[dB\].
     pub db_over_floor: f64,
 }
 
@@ -23,9 +23,9 @@ pub struct Group {
     pub label: String,
     /// Samples in the group.
     pub samples: usize,
-    /// Residual RMS [V].
+    /// Residual RMS \[V\].
     pub rms: f64,
-    /// Residual mean [V] (a bias at this operating point).
+    /// Residual mean \[V\] (a bias at this operating point).
     pub mean: f64,
     /// RMS against the noise floor's RMS.
     pub rms_over_floor: f64,
@@ -34,7 +34,7 @@ pub struct Group {
 /// What the gap is compared with.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Floor<'a> {
-    /// White sensor noise of this RMS [V], estimated from the data alone.
+    /// White sensor noise of this RMS \[V\], estimated from the data alone.
     White(f64),
     /// The residual a model leaves (when the data gives no model-free estimate).
     Residual(&'a [f64]),
@@ -63,7 +63,7 @@ impl FloorSource {
 /// The breakdown of the gap.
 #[derive(Debug, Clone, Serialize)]
 pub struct Where {
-    /// RMS of the noise floor [V].
+    /// RMS of the noise floor \[V\].
     pub noise_floor_rms: f64,
     /// How the noise floor was found.
     pub noise_floor_from: FloorSource,

@@ -32,7 +32,7 @@ use crate::effect::{
 };
 use crate::problem::Problem;
 
-/// The record's load current averaged over its samples [A] (what the extensions' probes are
+/// The record's load current averaged over its samples \[A\] (what the extensions' probes are
 /// sized by).
 pub(crate) fn io_mean(data: &DataSet) -> f64 {
     data.io.iter().sum::<f64>() / data.len().max(1) as f64
@@ -49,27 +49,27 @@ pub(crate) const MAX_EFFECTS: usize = 4;
 /// effects were in full sequences, and the joint refit frees no ESL or bias law.
 pub(crate) const MAX_EFFECTS_GOING_ON: usize = 8;
 
-/// Extra series resistance tried as starts on top of the model's `RL` [Ω].
+/// Extra series resistance tried as starts on top of the model's `RL` \[Ω\].
 const RESISTANCE_STARTS: [f64; 2] = [0.0, 0.03];
 
-/// The switches' own resistance tried as starts [Ω].
+/// The switches' own resistance tried as starts \[Ω\].
 pub(crate) const SWITCH_RESISTANCE_STARTS: [f64; 2] = [0.005, 0.03];
 
-/// A diode's slope resistance tried as starts [Ω] (a Schottky's at a few amperes is
+/// A diode's slope resistance tried as starts \[Ω\] (a Schottky's at a few amperes is
 /// 20–50 mΩ).
 pub(crate) const DIODE_RESISTANCE_STARTS: [f64; 2] = [0.01, 0.05];
 
-/// A switch node's capacitance tried as starts [F] (a power MOSFET's output capacitance is a
+/// A switch node's capacitance tried as starts \[F\] (a power MOSFET's output capacitance is a
 /// few hundred pF; two of them, a diode's junction and the layout add up to about a nF).
 pub(crate) const SWITCH_NODE_CAPACITANCE_STARTS: [f64; 2] = [200e-12, 1e-9];
 
-/// A ringing switch node's capacitance tried as starts [F] where a snubber damps the ring: an
+/// A ringing switch node's capacitance tried as starts \[F\] where a snubber damps the ring: an
 /// RC snubber's across a diode buck's diode (a few nF), or the node's own (a diode's junction,
 /// a MOSFET's output capacitance, the layout: about a nF), each behind the resistance that
 /// damps its ring about critically, its characteristic impedance `√(L/C)`.
 pub(crate) const RING_CAPACITANCE_STARTS: [f64; 2] = [1.5e-9, 5e-9];
 
-/// A bare switch node's capacitance tried as starts of its ring [F], each behind
+/// A bare switch node's capacitance tried as starts of its ring \[F\], each behind
 /// [`LIGHT_DAMPING`] of `√(L/C)`. Its fit has a valley per number of ring cycles the blocked
 /// time holds, so the starts span a few hundred pF to a few nF: a harness diode buck whose
 /// node holds 1.2 nF, started at 1.5 nF behind `√(L/C)`, fitted 12.5 nF behind 13 Ω with Cl on
@@ -85,7 +85,7 @@ pub(crate) const LIGHT_DAMPING: f64 = 0.02;
 /// half or twice the high side's).
 const LOW_SIDE_RATIO_STARTS: [f64; 2] = [0.5, 2.0];
 
-/// Extra series resistance of the screen's probe [Ω].
+/// Extra series resistance of the screen's probe \[Ω\].
 const PROBE_RESISTANCE: f64 = 0.01;
 
 /// Relative change of a "known" value in the screen's probe.

@@ -49,7 +49,7 @@ pub const CL_FIDELITY_WITH_EFFECTS: f64 = 1e-2;
 pub const CIRCUIT_FIDELITY: f64 = 1e-4;
 
 /// [`CIRCUIT_FIDELITY`] of a model holding an effect whose form approximates a device's curve
-/// or edge ([`crate::effect::approximates_a_device`]: a hard saturation knee for a core's soft
+/// or edge (`crate::effect::approximates_a_device`: a hard saturation knee for a core's soft
 /// one, a constant drop for a diode's exponential, a dead time's held node for its gate ramps
 /// and body diodes). What the approximation gets wrong, the fit puts partly into the output's
 /// resonance, so into L and C. Harness seed 3636's 36 datasets put 0.19 % of L into a
@@ -95,11 +95,11 @@ pub struct TestedCl {
     /// is the more precise; `moved_percent` from the fit's own), and the test's parts.
     #[serde(flatten)]
     pub cl: ClMove,
-    /// The fit's own CI95, which assumes the model is right [F].
+    /// The fit's own CI95, which assumes the model is right \[F\].
     pub model_ci95: [f64; 2],
     /// The interval was widened to ±`fidelity`.
     pub at_fidelity: bool,
-    /// The relative half-width the interval is held to ([`fidelity`]).
+    /// The relative half-width the interval is held to (`fidelity`).
     pub fidelity: f64,
 }
 

@@ -13,7 +13,7 @@ fn data(conv: Converter) -> DataSet {
     data_at(conv, Experiment::default().io)
 }
 
-/// 3001 PRBS periods at the load current `io` [A], σ = 2 mV on vout.
+/// 3001 PRBS periods at the load current `io` \[A\], σ = 2 mV on vout.
 fn data_at(conv: Converter, io: f64) -> DataSet {
     let exp = Experiment { samples: 3001, noise_vout: 2e-3, noise_seed: 11, io, ..Experiment::default() };
     let mut d = run(&mut ModelPlant::with_converter_in_open_loop(conv), &exp).unwrap();
@@ -528,7 +528,7 @@ fn read_at(p: Params, late: impl Fn(f64) -> usize) -> DataSet {
     d
 }
 
-/// The selected late reading's instant is within `tolerance` (relative) of `truth` [s].
+/// The selected late reading's instant is within `tolerance` (relative) of `truth` \[s\].
 fn assert_instant(dx: &gap::Diagnosis, truth: f64, tolerance: f64) {
     let late = dx.selected.iter().find(|e| e.name == "sample_delay").unwrap_or_else(|| panic!("no sample_delay: {}", dx.selection_ended));
     let delay = late.params["sample_delay"];

@@ -59,7 +59,7 @@ pub struct Step<'a> {
     pub name: &'a str,
     /// Share of the nominal's gap above the floor closed once it is added [%].
     pub closed_percent: f64,
-    /// Held-out residual RMS with it [V].
+    /// Held-out residual RMS with it \[V\].
     pub rms_after: f64,
     /// Share of il's gap above its floor it closed, where it is judged in il (a late reading,
     /// il's filter) [%].

@@ -24,7 +24,7 @@ pub struct Context<'a> {
     pub excitation: Option<&'a str>,
     /// What the reader should know of the circuit values: those assumed, those estimated with Cl.
     pub circuit: &'a [String],
-    /// White sensor noise on `vout` from the data alone (`gap::noise_floor`) [V], if found.
+    /// White sensor noise on `vout` from the data alone (`gap::noise_floor`) \[V\], if found.
     pub noise_floor: Option<f64>,
     /// Cl's tested interval, for data from a file (`gap::tested_cl`).
     pub cl_test: Option<&'a gap::TestedCl>,

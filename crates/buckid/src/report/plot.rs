@@ -14,21 +14,21 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::units::{prefix, si, tick};
 
-/// Width of every figure [px].
+/// Width of every figure \[px\].
 const W: u32 = 720;
-/// Height of the title strip [px].
+/// Height of the title strip \[px\].
 const TITLE: u32 = 30;
-/// Height of the x tick labels and axis name under the bottom panel [px].
+/// Height of the x tick labels and axis name under the bottom panel \[px\].
 const X_AREA: u32 = 42;
-/// Width of the y tick labels and axis name of line charts [px].
+/// Width of the y tick labels and axis name of line charts \[px\].
 const Y_AREA: u32 = 72;
-/// Height of one legend row [px].
+/// Height of one legend row \[px\].
 const LEGEND_ROW: u32 = 20;
-/// Height of one bar's row [px].
+/// Height of one bar's row \[px\].
 const BAR_ROW: u32 = 26;
-/// Right margin of the plot area [px].
+/// Right margin of the plot area \[px\].
 const RIGHT: u32 = 18;
-/// Approximate advance of one character of the 12 px sans-serif text [px].
+/// Approximate advance of one character of the 12 px sans-serif text \[px\].
 const CHAR: f64 = 6.8;
 
 /// Grey of the measurement and the nominal model.
@@ -123,7 +123,7 @@ pub struct Panel<'a> {
     pub bands: Vec<Band>,
     /// The lines.
     pub lines: Vec<Line>,
-    /// Height of the plot area [px].
+    /// Height of the plot area \[px\].
     pub height: u32,
 }
 
@@ -242,7 +242,7 @@ struct Legend {
 }
 
 impl Legend {
-    /// Each entry's position: `(row, x)` [px].
+    /// Each entry's position: `(row, x)` \[px\].
     fn layout(&self) -> Vec<(u32, u32)> {
         let (mut row, mut x) = (0, Y_AREA);
         self.entries
