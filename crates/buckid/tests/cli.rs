@@ -85,6 +85,11 @@ fn assert_within(what: &str, value: &serde_json::Value, truth: &serde_json::Valu
     assert!((v / t - 1.0).abs() < rel, "{what} {v} for {t}");
 }
 
+/// The final model's step in the diagnosis `dx`: the last effect selected.
+fn final_step(dx: &serde_json::Value) -> &serde_json::Value {
+    dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected")
+}
+
 /// The CI95 of a diagnosis's `cl` (an unbounded end as infinite), asserted to hold the truth's
 /// `cl_true`.
 fn assert_cl_holds_truth(cl: &serde_json::Value, truth: &serde_json::Value) -> [f64; 2] {
@@ -97,7 +102,7 @@ fn assert_cl_holds_truth(cl: &serde_json::Value, truth: &serde_json::Value) -> [
 /// The final model's Cl interval in the diagnosis `dx`, asserted to hold the truth's `cl_true`
 /// and to span less than a factor `max_ratio`.
 fn assert_final_cl_holds_truth(dx: &serde_json::Value, truth: &serde_json::Value, max_ratio: f64) -> [f64; 2] {
-    let last = dx["selected"].as_array().unwrap().last().expect("a selected effect");
+    let last = final_step(dx);
     let [lo, hi] = assert_cl_holds_truth(&last["cl"], truth);
     assert!(hi / lo < max_ratio, "Cl not identified: [{lo:e}, {hi:e}] spans a factor of {max_ratio} or more");
     [lo, hi]
@@ -111,7 +116,7 @@ fn twin_labels(twin: &serde_json::Value) -> Vec<&str> {
 /// Asserts that the final model of the diagnosis `dx` leaves less than `floors` noise floors
 /// held out.
 fn assert_final_within_floors(dx: &serde_json::Value, floors: f64) {
-    let last = dx["selected"].as_array().unwrap().last().expect("a selected effect");
+    let last = final_step(dx);
     let (left, floor) = (last["rms_after"].as_f64().unwrap(), dx["where"]["noise_floor_rms"].as_f64().unwrap());
     assert!(left < floors * floor, "{left} V left, {:.2} floors", left / floor);
 }
@@ -780,7 +785,7 @@ fn vouts_own_instant_in_our_fmu_is_weighed_against_the_path_il_read_noisy() {
     assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
     let s = settings(60e-9);
     let dx = diagnose_our_fmus_adc(&[&s[0], &s[1], &s[2], &s[3]], true);
-    let apart = &dx["selected"].as_array().unwrap().last().unwrap()["cl"]["read_late"];
+    let apart = &final_step(&dx)["cl"]["read_late"];
     assert_eq!(apart["instant"], "vout_skew", "{}", dx["selected"]);
     assert!((apart["value"].as_f64().unwrap() / 60e-9 - 1.0).abs() < 0.1, "{apart}");
     assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.15);
@@ -806,7 +811,7 @@ fn a_filter_on_il_alone_is_named_from_il() {
         let dx = diagnose_our_fmus_adc(&adc, false);
         assert_eq!(selected_names(&dx), names, "{adc:?}: {}", dx["selection_ended"]);
         assert_eq!(dx["verdict"], names[0]);
-        let filtered = dx["selected"].as_array().unwrap().last().unwrap();
+        let filtered = final_step(&dx);
         assert!(filtered["params"].get("vout_filter").is_none() && filtered["il_closed_percent"].as_f64().unwrap() > 95.0, "{filtered}");
         assert_time_constants(&dx, &[("il_filter", tau)]);
         assert_final_cl_holds_truth(&dx, &serde_json::json!({ "cl_true": 4.7e-6 }), 1.05);
@@ -866,7 +871,7 @@ fn a_small_cl_beside_a_large_c_is_held_to_l_and_cs_fidelity() {
 #[test]
 fn a_fitted_l_spans_cl_with_the_current_probe_exact() {
     let (dx, truth) = diagnose_third("pol-several-7701");
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let last = final_step(&dx);
     assert!(dx["selected"].as_array().unwrap().iter().any(|e| e["params"]["L"].is_number()), "L not fitted: {}", dx["selected"]);
     let probe = &last["cl"]["probe_exact"];
     let gain = probe["probe_gain"].as_f64().unwrap();
@@ -1088,7 +1093,7 @@ fn an_inductance_low_throughout_is_a_drift_not_a_saturation_below_every_current(
 #[test]
 fn a_joint_model_from_the_nominal_values_as_good_as_the_path_spans_cl() {
     let (dx, truth) = diagnose_third("pol-several-10102");
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let last = final_step(&dx);
     let twins = last["cl"]["twins"].as_array().expect("Cl's twins");
     let twin = twins.iter().find(|t| twin_labels(t).contains(&"param_drift (C)")).expect("a twin with C's drift");
     assert!(!twin_labels(twin).contains(&"sensor_gain"), "{twin}");
@@ -1368,7 +1373,7 @@ fn a_resistance_within_the_tolerance_of_rl_is_no_finding() {
 fn a_significant_reading_instant_that_moves_cl_widens_its_interval() {
     let (dx, truth) = diagnose_generated(generated_fixture("harness", "drift-switches-3232-12"));
     assert_eq!(selected_names(&dx), ["param_drift", "switch_resistance"], "{}", dx["selection_ended"]);
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let last = final_step(&dx);
     let late = &last["cl"]["read_late"];
     assert_eq!(late["instant"], "sample_delay", "{late}");
     assert_within("the reading's instant [s]", &late["value"], &truth["settings"]["adc_delay"], 0.2);
@@ -1405,7 +1410,7 @@ fn a_capacitor_drift_cl_could_take_up_is_fitted_from_the_nominal_fit_too() {
     let (dx, truth) = diagnose_third("lab-single-9301");
     assert_eq!(dx["verdict"], "param_drift", "{}", dx["selection_ended"]);
     assert_within("C [F]", &dx["selected"][0]["params"]["C"], &truth["circuit"]["C"], 0.01);
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let last = final_step(&dx);
     assert_within("Cl [F]", &last["cl"]["estimate"], &truth["cl_true"], 0.02);
     assert_final_cl_holds_truth(&dx, &truth, 10.0);
 }
@@ -1430,7 +1435,7 @@ fn effects_that_only_together_explain_a_diode_buck_in_dcm_are_fitted_as_a_pair()
     let (dx, truth) = diagnose_third("thesis-several-4302");
     assert_eq!(selected_names(&dx)[..2], ["dcm", "param_drift"], "{}", dx["selection_ended"]);
     assert_within("L [H]", &dx["selected"][1]["params"]["L"], &truth["circuit"]["L"], 0.06);
-    let last = dx["selected"].as_array().unwrap().last().unwrap();
+    let last = final_step(&dx);
     assert!(last["cl"]["ci95"][1].is_null() && last["cl"]["deep_dcm_miss"]["dcm_share"].as_f64() > Some(0.9), "{}", last["cl"]);
 }
 
@@ -1520,7 +1525,7 @@ fn identify_tests_the_interval_on_a_circuits_data() {
 #[test]
 fn a_model_with_the_wrong_impedance_is_not_identified() {
     let (dx, _) = diagnose_third("lab-several-4101");
-    let cl = &dx["selected"].as_array().and_then(|s| s.last()).expect("a selection")["cl"];
+    let cl = &final_step(&dx)["cl"];
     let upper = cl["ci95"][1].as_f64();
     assert!(upper.is_none_or(|u| !u.is_finite()), "{cl}");
     let gain = cl["current_misfit"]["probe_gain"].as_f64().expect("the current's misfit");
@@ -1537,7 +1542,7 @@ fn a_model_with_the_wrong_impedance_is_not_identified() {
 fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
     let (dx, truth) = diagnose_third("pol-single-2301");
     assert_eq!(truth["effects"], serde_json::json!(["cap_dc_bias"]));
-    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let last = final_step(&dx);
     assert!(dx["selected"].as_array().unwrap().iter().any(|e| e["name"] == "cap_dc_bias"), "{}", dx["selection_ended"]);
     let (cl, law) = (&last["cl"], &last["cl"]["bias_law"]);
     assert!(law["told_apart"] == true && law["fits_to_floor"] == false, "{law}");
@@ -1558,7 +1563,7 @@ fn a_ceramic_between_the_two_laws_gets_an_interval_spanning_both() {
 fn a_failed_interval_test_widens_the_other_laws_cl_too() {
     let (dx, truth) = diagnose_third("thesis-single-7301");
     assert_eq!(truth["effects"], serde_json::json!(["dead_time"]));
-    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let last = final_step(&dx);
     let cl = &last["cl"];
     assert_eq!(cl["check"]["consistent"], false, "{cl}");
     let [lo, hi] = assert_cl_holds_truth(cl, &truth);
@@ -1577,7 +1582,7 @@ fn a_failed_interval_test_widens_the_other_laws_cl_too() {
 #[test]
 fn a_drift_pruned_into_cl_leaves_cl_not_identified() {
     let (dx, truth) = diagnose_third("lab-several-7502");
-    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let last = final_step(&dx);
     let cl = &last["cl"];
     let twins = cl["twins"].as_array().expect("Cl's twins");
     assert!(twins.iter().any(|t| twin_labels(t).contains(&"param_drift (C)")), "{cl}");
@@ -1601,7 +1606,7 @@ fn a_diode_buck_read_on_vout_alone_is_followed_from_its_diode() {
     for board in ["pol-several-1170", "pol-several-1190"] {
         let (dx, truth) = diagnose_third(board);
         assert_eq!(dx["verdict"], "diode_drop", "{board}: {}", dx["selection_ended"]);
-        let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+        let last = final_step(&dx);
         let [lo, hi] = assert_cl_holds_truth(&last["cl"], &truth);
         if board == "pol-several-1170" {
             assert!(estimator::validate::identified([lo, hi]), "{board}: Cl [{lo:e}, {hi:e}] not identified");
@@ -1622,7 +1627,7 @@ fn a_stuck_paths_refit_starts_from_the_drifts_tolerance_ends() {
     let names = selected_names(&dx);
     assert!(["dead_time", "param_drift", "switch_resistance"].iter().all(|n| names.contains(n)), "{names:?}: {}", dx["selection_ended"]);
     assert_within("C [F]", selected_param(&dx, "C"), &truth["circuit"]["C"], 0.02);
-    let last = dx["selected"].as_array().and_then(|s| s.last()).expect("an effect selected");
+    let last = final_step(&dx);
     let [_, hi] = assert_cl_holds_truth(&last["cl"], &truth);
     assert!(hi < 3.0 * truth["cl_true"].as_f64().unwrap(), "Cl up to {hi:e}: not pinned down");
 }

@@ -350,18 +350,20 @@ fn refit_with(p: &Problem, selected: &mut Vec<EffectFit>, load_esr: bool) -> Opt
     // stuck too: its stand-ins' valley held the refit. It starts again from each drift at an end
     // of its tolerance, the rest as selected, and the fit that leaves least is kept.
     let stuck = |rms_left: f64| baseline.floor.is_some_and(|f| rms_left > STUCK_FLOORS * f);
-    let cand = match cand {
-        Ok(cand) if stuck(last.rms_after) && stuck(rms(&residual(&cand))) => {
+    let left = |c: Candidate| (rms(&residual(&c)), c);
+    let cand = match cand.map(left) {
+        Ok((rms_left, cand)) if stuck(last.rms_after) && stuck(rms_left) => {
             let moved = |f: Free, k: f64| {
                 let mut start = stack.params;
                 f.set(&mut start, k * f.get(nominal));
                 start
             };
             let starts: Vec<Params> = DRIFTING.into_iter().flat_map(|f| DRIFT_GRID.map(|k| moved(f, k))).collect();
-            let fits: Vec<Candidate> = starts.par_iter().filter_map(|start| stack.fit(data, std::slice::from_ref(start), n_est, holdout).ok()).collect();
-            fits.into_iter().fold(cand, |best, c| if rms(&residual(&c)) < rms(&residual(&best)) { c } else { best })
+            let fits: Vec<(f64, Candidate)> = starts.par_iter().filter_map(|start| stack.fit(data, std::slice::from_ref(start), n_est, holdout).ok().map(left)).collect();
+            // The first of equals: the refit from the selection's values before the grid's.
+            std::iter::once((rms_left, cand)).chain(fits).min_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, c)| c)?
         }
-        cand => cand.ok()?,
+        cand => cand.ok()?.1,
     };
     if load_esr && cand.fit.estimates.iter().any(|e| e.name == Free::LoadEsr.name() && !estimator::validate::identified([e.ci95.0, e.ci95.1])) {
         return None;
