@@ -35,7 +35,7 @@ pub use bias_law::BiasLawSpread;
 pub use current::{CurrentMisfit, PROBE_GAIN_TOLERANCE, ProbeExact};
 pub use effect::{
     Against, Alike, ClCheck, ClMove, DEEP_DCM_MISS_FLOORS, DEEP_DCM_SHARE, DeepDcmMiss, EFFECTS, EffectFit, GROSS_MISS_FLOORS, GROSS_MISS_OF_SWING, InPlaceOf, MATERIAL_OF_SWING, MATERIAL_SHARE,
-    NotTested, RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
+    NEAR_STEP_MISS, NearStep, NotTested, RECIPROCAL_BIAS_LAW, ReadLate, closed_percent, gap_above, gap_material, model_error_inflation,
 };
 use options::nominal_options;
 pub use options::{DiagnoseOptions, Nominal, SwitchingEvidence, nominal_for};
@@ -676,7 +676,7 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
     let cl_leverage = if switched { leverage(data, nominal, &selected, preferred_circuit, baseline.cl, opts.nominal == Nominal::Switched, n_est) } else { None };
     let cl_circuit_fidelity = if selected.iter().any(|e| effect::approximates_a_device(e.name)) { CIRCUIT_FIDELITY_WITH_DEVICES } else { CIRCUIT_FIDELITY };
     let cl_fidelity = tested::fidelity(if selected.is_empty() { CL_FIDELITY } else { CL_FIDELITY_WITH_EFFECTS }, cl_circuit_fidelity, cl_leverage.as_ref());
-    let (nominal_cl, cl_at_fidelity) = if let Some(last) = selected.last_mut() {
+    let (nominal_cl, cl_at_fidelity) = if let Some((last, earlier)) = selected.split_last_mut() {
         // The model's miss is judged by what the reported fit leaves (the other law's, where
         // the data prefers it).
         let left = preferred_residual.as_deref().unwrap_or(&last.residual);
@@ -735,6 +735,14 @@ pub fn diagnose(data: &DataSet, nominal: &Params, opts: &DiagnoseOptions) -> Res
         last.cl.held_to_current(misfit, fits_l.as_ref());
         let at_fidelity;
         (last.cl.ci95, at_fidelity) = tested::at_fidelity_of(last.cl.estimate, last.cl.ci95, cl_fidelity);
+        // A final model that still misses lacks an effect the size of its last steps: Cl of
+        // the models along its path that miss about as much, where it lies outside even so.
+        if let (Some(floor), Some(_)) = (baseline.floor, last.cl.widened_by) {
+            last.cl.near_steps = effect::NearStep::of(earlier, effect::rms(left), floor, last.cl.ci95);
+            for step in &last.cl.near_steps {
+                last.cl.ci95 = step.spanned(last.cl.ci95);
+            }
+        }
         (None, at_fidelity)
     } else {
         let judged = TestedCl::judged(&baseline, baseline.cl, base_cl, tested, &residual, cl_fidelity);
